@@ -1,0 +1,12 @@
+"""Glue for workflow scripts: one-line errors, never a traceback (design.md, "Errors")."""
+import sys
+
+from spaceopt.errors import SpaceoptError
+
+
+def run_step(main, *args, **kwargs):
+    try:
+        return main(*args, **kwargs)
+    except SpaceoptError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        sys.exit(1)
