@@ -1,0 +1,173 @@
+"""The LP → T_min → OT chain (dissertation §3.3–3.4), from the zero initial guess.
+
+1. LP from z = (0, …, 0, K_f = ΔL) by the Newton homotopy (3.1.3): a coast on the initial orbit.
+2. LP → T_min by the homotopy (3.4.1), starting from 2× the LP costates (the (3.4.1) LP limit is
+   ½k|A|², spec 01-methods §3.3 erratum (a)), p_m = 0 and T⁽⁰⁾ = m₀c/Δt_LP (1 − e^(−V_LP/c)).
+   The printed homotopy is singular at τ = 0 (p_T(K_f) ≡ 0 and no dependence on T); we impose
+   Q(K_f) = p_T(K_f)/τ instead, which is exact because p_T is cyclic (see flow.field).
+3. Verdict: T < T_min means no transfer over this angular range; n* ≈ n T_min / T revolutions
+   would be needed (§4.1, "hyperbolic law").
+4. LP → OT by the homotopy (3.3.1) with ε(τ) = 1 − τ + ε_f τ; or, from a converged OT solution,
+   continuation in thrust at ε = ε_f (used near T_min, where the dissertation notes that the
+   engine never switches off).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import diffrax
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from . import hamiltonians as hm
+from .continuation import Continuation, ContinuationOptions
+from .flow import Model, field as flow_field, ot_params
+from .shooting import Shooting, initial_state, shoot
+from .transfer import Transfer
+
+ORBIT_COSTATES = (hm.P, hm.EX, hm.EY, hm.IX, hm.IY, hm.LK)
+LP_SHOOTING = Shooting(Model("lp"), ORBIT_COSTATES)
+OT_SHOOTING = Shooting(Model("ot", "lp"), ORBIT_COSTATES + (hm.MASS,))
+OT_THRUST_SHOOTING = Shooting(Model("ot", "thrust"), ORBIT_COSTATES + (hm.MASS,))
+TMIN_SHOOTING = Shooting(Model("tmin", "lp"), ORBIT_COSTATES + (hm.MASS,))
+
+
+@dataclass
+class Solution:
+    """A converged stage of the chain: unknowns z (nondimensional) plus what produced them."""
+    stage: str                  # 'lp' | 'tmin' | 'ot'
+    shooting: Shooting
+    z: np.ndarray
+    prm: dict
+    transfer: Transfer
+    stats: dict
+    thrust_N: float = float("nan")
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def K_f(self):
+        return float(self.z[self.shooting.kf_index])
+
+    def costates(self):
+        names = self.shooting.unknown_names()
+        return {n: float(v) for n, v in zip(names, self.z) if n.startswith("p_")}
+
+
+def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None):
+    opt = options or ContinuationOptions()
+    opt = ContinuationOptions(**{**opt.__dict__, "label": label})
+    cont = Continuation(lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm), opt)
+    t0 = time.perf_counter()
+    z, _ = cont.run(z0)
+    stats = cont.stats.as_dict()
+    stats["wall_time_s"] = time.perf_counter() - t0
+    return np.asarray(z), stats
+
+
+def solve_lp(tr: Transfer, options=None, label="lp") -> Solution:
+    """Minimum-power solve from the zero guess with K_f = ΔL."""
+    prm = tr.params()
+    z0 = np.zeros(LP_SHOOTING.size)
+    z0[LP_SHOOTING.kf_index] = tr.delta_L
+    z, stats = _run(LP_SHOOTING, z0, prm, label, options)
+    sol = Solution("lp", LP_SHOOTING, z, prm, tr, stats)
+    sol.extra.update(lp_integrals(sol))
+    return sol
+
+
+def tmin_initial_guess(lp: Solution) -> float:
+    """T⁽⁰⁾ = m₀ c / Δt_LP · (1 − exp(−V_LP/c))  [N] (§3.4)."""
+    tr = lp.transfer
+    dt = lp.extra["tof_s"]
+    return tr.m0 * tr.c / dt * (1.0 - math.exp(-lp.extra["dv_m_s"] / tr.c))
+
+
+def solve_tmin(lp: Solution, options=None, label="tmin") -> Solution:
+    tr = lp.transfer
+    prm = tr.params()
+    T0 = tmin_initial_guess(lp) / tr.force_unit
+    z0 = np.concatenate([2.0 * lp.z[:6], [0.0, lp.K_f, T0]])
+    z, stats = _run(TMIN_SHOOTING, z0, prm, label, options)
+    sol = Solution("tmin", TMIN_SHOOTING, z, prm, tr, stats)
+    sol.thrust_N = float(z[-1]) * tr.force_unit
+    sol.extra["T0_N"] = T0 * tr.force_unit
+    return sol
+
+
+def existence_verdict(tmin: Solution, thrust_N: float) -> dict:
+    """Does an OT transfer with thrust T exist over this angular range? (§3.4 decision rule)."""
+    n = tmin.transfer.n_rev
+    exists = thrust_N >= tmin.thrust_N
+    return {"thrust_N": thrust_N, "T_min_N": tmin.thrust_N, "exists": bool(exists),
+            "n_rev": n, "n_rev_needed_estimate": n * tmin.thrust_N / thrust_N,
+            "message": (f"transfer exists: T = {thrust_N:g} N >= T_min = {tmin.thrust_N:.8g} N"
+                        if exists else
+                        f"no transfer over {n:g} revolutions: T = {thrust_N:g} N < T_min = "
+                        f"{tmin.thrust_N:.8g} N; about {n * tmin.thrust_N / thrust_N:.1f} "
+                        f"revolutions would be needed")}
+
+
+def solve_ot(lp: Solution, thrust_N: float, options=None, label="ot") -> Solution:
+    """LP → OT homotopy (3.3.1) at thrust T."""
+    tr = lp.transfer
+    prm = tr.params(thrust=thrust_N)
+    z0 = np.concatenate([2.0 * lp.z[:6], [0.0, lp.K_f]])
+    z, stats = _run(OT_SHOOTING, z0, prm, label, options)
+    sol = Solution("ot", OT_SHOOTING, z, prm, tr, stats, thrust_N=thrust_N)
+    sol.prm = tr.params(thrust=thrust_N)
+    return sol
+
+
+def continue_ot_in_thrust(ot: Solution, thrust_N: float, options=None, label="ot-thrust") -> Solution:
+    """From a converged OT solution at T_a to thrust T_b, at ε = ε_f."""
+    tr = ot.transfer
+    prm = dict(tr.params(thrust=thrust_N))
+    prm["thrust_a"] = jnp.asarray(ot.thrust_N / tr.force_unit)
+    prm["thrust_b"] = jnp.asarray(thrust_N / tr.force_unit)
+    z, stats = _run(OT_THRUST_SHOOTING, ot.z, prm, label, options)
+    return Solution("ot", OT_SHOOTING, z, tr.params(thrust=thrust_N), tr, stats, thrust_N=thrust_N)
+
+
+# ---------------------------------------------------------------- dense trajectories
+
+def final_model(sol: Solution) -> Model:
+    return {"lp": Model("lp"), "tmin": Model("tmin", "lp"), "ot": Model("ot", "lp")}[sol.stage]
+
+
+def dense(sol: Solution, samples_per_rev: int = 200):
+    """Trajectory y(K) at τ = 1 on a uniform K grid: returns K [rad] and y (N × 2n)."""
+    sh = sol.shooting
+    model = final_model(sol)
+    y0 = initial_state(sh, jnp.asarray(sol.z), sol.prm)
+    n = max(int(samples_per_rev * sol.transfer.n_rev), 200)
+    Ks = jnp.linspace(0.0, sol.K_f, n)
+    rhs = lambda K, y, args: flow_field(model, K, y, 1.0, sol.prm)
+    out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, sol.K_f, None, y0,
+                              stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-13),
+                              saveat=diffrax.SaveAt(ts=Ks), max_steps=sh.max_steps)
+    return np.asarray(Ks), np.asarray(out.ys)
+
+
+def lp_integrals(sol: Solution) -> dict:
+    """J_LP = ∫ k|A|² dK and V = ∫ k1 k2 |A| dK along the LP solution, plus Δt (SI)."""
+    tr = sol.transfer
+    n = sol.shooting.model.n
+    y0 = initial_state(sol.shooting, jnp.asarray(sol.z), sol.prm)
+
+    def rhs(K, Y, args):
+        y = Y[:-2]
+        g = hm.geometry(K, y[:n])
+        A = hm.primer(y[:n], y[n:], g)
+        return jnp.concatenate([flow_field(Model("lp"), K, y, 1.0, sol.prm),
+                                jnp.stack([g["k"] * jnp.dot(A, A), g["k1"] * g["k2"] * hm.safe_norm(A)])])
+
+    out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, sol.K_f, None,
+                              jnp.concatenate([y0, jnp.zeros(2)]),
+                              stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-13),
+                              max_steps=sol.shooting.max_steps)
+    yf = np.asarray(out.ys[-1])
+    return {"J_LP_m2s3": float(yf[-2]) * tr.du**2 / tr.tu**3, "dv_m_s": float(yf[-1]) * tr.vu,
+            "tof_s": float(yf[hm.TIME]) * tr.tu}

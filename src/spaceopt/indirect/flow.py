@@ -1,0 +1,154 @@
+"""Canonical fields derived by JAX, the homotopy blends, and their propagation with sensitivities.
+
+Hamiltonian field (2.1.10):  dx/dK = ∂H/∂λ,  dλ/dK = −∂H/∂x,  built with ``jax.grad``.
+
+Homotopy fields (3.3.1) LP→OT and (3.4.1) LP→T_min, written as the blend the printed equations
+reduce to once their typos are fixed (spec 01-methods §3.3, "clean interpretation"):
+
+    g_τ = [(1 − τ) g_LP' + τ W g_target] / (1 − τ + τ W),
+
+with g_LP' the field of ½ k|A|², W = |A| (OT) or |A₁| (T_min). The printed (3.4.1) uses the
+blended primer B = (1−τ)A + τA₁ in its state rows; we use the same blend for every row of both
+homotopies — the end points τ = 0 and τ = 1 are identical, which is all the method requires.
+
+Smoothed throttle: δ(S(y), ε) is evaluated outside ``jax.grad`` and passed to H as a constant, so
+the costate equations carry no ∂δ/∂S term (δ frozen, spec 01-methods §7), while ``jax.jvp`` of
+the whole field — the sensitivity equations — does see dδ/dy.
+
+Sensitivities (3.1.5–3.1.6): Φ = ∂y/∂(z, τ) obeys dΦ/dK = g_y Φ (+ g_τ in the τ column); the
+directional derivatives come from ``jax.linearize`` of the field, one tangent per column.
+Integration: diffrax Dopri8 (8(7) Dormand–Prince) with a PID step-size controller whose error
+norm covers the state and costates (the sensitivities ride along on the same steps).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import partial
+
+import diffrax
+import jax
+import jax.numpy as jnp
+
+from . import hamiltonians as hm
+
+
+def hamiltonian_field(H, K, y, n):
+    """J ∇H: (∂H/∂λ, −∂H/∂x) for y = (x, λ) with len(x) = n."""
+    x, lam = y[:n], y[n:]
+    dHdx, dHdl = jax.grad(H, argnums=(1, 2))(K, x, lam)
+    return jnp.concatenate([dHdl, -dHdx])
+
+
+@dataclass(frozen=True)
+class Model:
+    """Static description of a field: which problem and which homotopy parameter τ drives.
+
+    kind: 'lp' (LP, τ unused — Newton homotopy), 'ot' or 'tmin'.
+    homotopy (for 'ot'): 'lp' — τ blends LP→OT and ε(τ) = 1 − τ + ε_f τ (3.3.1);
+                         'thrust' — pure OT with T = T_a + τ (T_b − T_a) at ε = ε_f.
+    homotopy (for 'tmin'): 'lp' — τ blends LP→T_min (3.4.1).
+    """
+    kind: str
+    homotopy: str = "lp"
+
+    @property
+    def n(self) -> int:
+        return hm.N_STATE + (1 if self.kind == "tmin" else 0)
+
+
+def _lp_prime(prm):
+    return {**prm, "lp_scale": 0.5}
+
+
+def ot_params(model: Model, tau, prm):
+    """Thrust and ε at τ for an OT model."""
+    if model.homotopy == "thrust":
+        return prm["thrust_a"] + tau * (prm["thrust_b"] - prm["thrust_a"]), prm["eps_final"]
+    return prm["thrust"], hm.epsilon_schedule(tau, prm["eps_final"])
+
+
+def ot_delta(model: Model, K, y, tau, prm):
+    n = model.n
+    thrust, eps = ot_params(model, tau, prm)
+    prm_t = {**prm, "thrust": thrust}
+    S = hm.switching_ot(K, y[:n], y[n:], prm_t)
+    return hm.smooth_delta(S, eps), S, prm_t
+
+
+def field(model: Model, K, y, tau, prm):
+    """dy/dK of ``model`` at homotopy parameter τ."""
+    n = model.n
+    if model.kind == "lp":
+        return hamiltonian_field(partial(hm.h_lp, prm={**prm, "lp_scale": 1.0}), K, y, n)
+    if model.kind == "ot":
+        delta, _, prm_t = ot_delta(model, K, y, tau, prm)
+        g_tgt = hamiltonian_field(partial(hm.h_ot, prm=prm_t, delta=delta), K, y, n)
+        if model.homotopy == "thrust":
+            return g_tgt
+        W = hm.primer_magnitude(K, y[:n], y[n:])
+    elif model.kind == "tmin":
+        g_tgt = hamiltonian_field(partial(hm.h_tmin, prm=prm), K, y, n)
+        W = hm.primer_magnitude(K, y[:n], y[n:], -0.5 * y[hm.THRUST] ** 2)
+    else:
+        raise ValueError(model.kind)
+    g_lp = hamiltonian_field(partial(hm.h_lp, prm=_lp_prime(prm)), K, y, n)
+    den = 1.0 - tau + tau * W
+    g = ((1.0 - tau) * g_lp + tau * W * g_tgt) / den
+    if model.kind == "tmin":
+        # p_T enters no other equation, so p_T(K) = τ Q(K) exactly; we integrate Q, whose
+        # terminal value is the T_min residual with the τ = 0 singularity of (3.4.1) removed.
+        g = g.at[n + hm.THRUST].set(W * g_tgt[n + hm.THRUST] / den)
+    return g
+
+
+def hamiltonian(model: Model, K, y, tau, prm):
+    """H entering the transversality residual p_LK(0) + H(0): (1−τ) H_LP' + τ H_target."""
+    n = model.n
+    x, lam = y[:n], y[n:]
+    if model.kind == "lp":
+        return hm.h_lp(K, x, lam, {**prm, "lp_scale": 1.0})
+    if model.kind == "ot":
+        delta, _, prm_t = ot_delta(model, K, y, tau, prm)
+        h_t = hm.h_ot(K, x, lam, prm_t, delta)
+        if model.homotopy == "thrust":
+            return h_t
+    else:
+        h_t = hm.h_tmin(K, x, lam, prm)
+    return (1.0 - tau) * hm.h_lp(K, x, lam, _lp_prime(prm)) + tau * h_t
+
+
+def _primal_rms(err):
+    y_err = err[0] if isinstance(err, tuple) else err
+    return jnp.sqrt(jnp.mean(y_err**2))
+
+
+def _solve(rhs, y0, Kf, args, rtol, atol, max_steps, saveat):
+    return diffrax.diffeqsolve(
+        diffrax.ODETerm(rhs), diffrax.Dopri8(), t0=0.0, t1=Kf, dt0=None, y0=y0, args=args,
+        stepsize_controller=diffrax.PIDController(rtol=rtol, atol=atol, norm=_primal_rms),
+        saveat=saveat, max_steps=max_steps, throw=False)
+
+
+def propagate_with_sensitivities(model: Model, y0, Phi0, Kf, tau, prm, rtol, atol, max_steps):
+    """Integrate y and Φ = ∂y/∂(z…, τ) from K = 0 to Kf. The last column of Φ is the τ column."""
+    n_dir = Phi0.shape[1]
+    tau_tangent = jnp.zeros(n_dir).at[-1].set(1.0)
+
+    def rhs(K, Y, args):
+        y, Phi = Y
+        tau_, prm_ = args
+        gy, lin = jax.linearize(lambda yy, tt: field(model, K, yy, tt, prm_), y, tau_)
+        dPhi = jax.vmap(lin, in_axes=(1, 0), out_axes=1)(Phi, tau_tangent)
+        return gy, dPhi
+
+    sol = _solve(rhs, (y0, Phi0), Kf, (tau, prm), rtol, atol, max_steps, diffrax.SaveAt(t1=True))
+    yf, Phif = sol.ys[0][-1], sol.ys[1][-1]
+    return yf, Phif, sol.stats["num_steps"], sol.result == diffrax.RESULTS.successful
+
+
+def propagate_dense(model: Model, y0, Kf, tau, prm, rtol, atol, max_steps, n_samples):
+    """Primal trajectory sampled on a uniform K grid (for artifacts and figures)."""
+    ts = jnp.linspace(0.0, Kf, n_samples)
+    rhs = lambda K, y, args: field(model, K, y, args[0], args[1])
+    sol = _solve(rhs, y0, Kf, (tau, prm), rtol, atol, max_steps, diffrax.SaveAt(ts=ts))
+    return ts, sol.ys, sol.result == diffrax.RESULTS.successful

@@ -1,0 +1,123 @@
+"""Shooting maps f(z, τ) with fixed angular range and free time, and their exact Jacobians.
+
+Boundary conditions (spec 01-methods §1.4, §2.1, §2.3, §2.4):
+
+    K = 0:   x(0) = x₀, L_K(0) = L₀, t(0) = 0, m(0) = 1,         p_LK(0) + H(0) = 0,
+    K = K_f: x(K_f) = x_f, L_K(K_f) + K_f = L_f, [p_m(K_f) = 0], [p_T(K_f)/τ = 0].
+
+Unknowns z = (p_p, p_ex, p_ey, p_ix, p_iy, p_LK, [p_m], K_f, [T]):
+
+| problem | unknowns | residuals | equations |
+|---|---|---|---|
+| LP    | 7 | p_LK+H, 5 elements, L_f          | (2.2.10)–(2.2.11) |
+| OT    | 8 | + p_m(K_f)                       | (2.1.11)–(2.1.12) |
+| T_min | 9 | + p_m(K_f), Q(K_f) = p_T(K_f)/τ   | (2.3.10)          |
+
+(unperturbed, time-independent problems: p_t ≡ 0 and is not an unknown.) p_LK(0) is kept as an
+unknown rather than eliminated by the quadratic (2.1.13), which is invalid with smoothed δ.
+
+∂f/∂z and ∂f/∂τ come from the sensitivities Φ propagated with the trajectory; the K_f column is
+g(K_f) (one extra field evaluation), as in the dissertation §3.3. No finite differences.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+
+from . import hamiltonians as hm
+from .flow import Model, field, hamiltonian, propagate_with_sensitivities
+
+COSTATE_NAMES = ("p_p", "p_ex", "p_ey", "p_ix", "p_iy", "p_LK", "p_t", "p_m")
+
+
+@dataclass(frozen=True)
+class Shooting:
+    """Static layout of one shooting problem (hashable: it keys the JIT cache)."""
+    model: Model
+    free_costates: tuple          # indices into λ that are unknowns
+    rtol: float = 1e-11
+    atol: float = 1e-12
+    max_steps: int = 400_000
+
+    @property
+    def has_thrust(self) -> bool:
+        return self.model.kind == "tmin"
+
+    @property
+    def kf_index(self) -> int:
+        return len(self.free_costates)
+
+    @property
+    def size(self) -> int:
+        return len(self.free_costates) + 1 + (1 if self.has_thrust else 0)
+
+    def unknown_names(self):
+        names = [COSTATE_NAMES[i] for i in self.free_costates] + ["K_f"]
+        return names + (["T"] if self.has_thrust else [])
+
+    def residual_names(self):
+        names = ["p_LK+H", "p", "e_x", "e_y", "i_x", "i_y", "L_f"]
+        if hm.MASS in self.free_costates:
+            names.append("p_m(K_f)")
+        if self.has_thrust:
+            names.append("p_T(K_f)/tau")
+        return names
+
+
+def initial_state(sh: Shooting, z, prm):
+    """y(0) from the unknowns: states fixed by the left boundary, costates from z."""
+    n = sh.model.n
+    x = jnp.concatenate([prm["x0"], jnp.stack([prm["L0"], 0.0, 1.0])])
+    if sh.has_thrust:
+        x = jnp.concatenate([x, z[sh.kf_index + 1:sh.kf_index + 2]])
+    lam = jnp.zeros(n).at[jnp.array(sh.free_costates)].set(z[:sh.kf_index])
+    return jnp.concatenate([x, lam])
+
+
+def terminal_residual(sh: Shooting, yf, Kf, prm):
+    n = sh.model.n
+    r = [yf[:5] - prm["xf"], jnp.atleast_1d(yf[hm.LK] + Kf - prm["Lf"])]
+    if hm.MASS in sh.free_costates:
+        r.append(jnp.atleast_1d(yf[n + hm.MASS]))
+    if sh.has_thrust:
+        r.append(jnp.atleast_1d(yf[n + hm.THRUST]))
+    return jnp.concatenate(r)
+
+
+def transversality(sh: Shooting, z, tau, prm):
+    y0 = initial_state(sh, z, prm)
+    return y0[sh.model.n + hm.LK] + hamiltonian(sh.model, 0.0, y0, tau, prm)
+
+
+@partial(jax.jit, static_argnums=0)
+def shoot(sh: Shooting, z, tau, prm):
+    """Residual f(z, τ), ∂f/∂z, ∂f/∂τ, number of integration steps, success flag."""
+    kf = sh.kf_index
+    z_nokf = jnp.delete(z, kf, assume_unique_indices=True)
+
+    def y0_of(znk):
+        return initial_state(sh, jnp.insert(znk, kf, z[kf]), prm)
+
+    y0 = y0_of(z_nokf)
+    Phi0 = jnp.concatenate([jax.jacfwd(y0_of)(z_nokf), jnp.zeros((y0.size, 1))], axis=1)
+    yf, Phif, nsteps, ok = propagate_with_sensitivities(
+        sh.model, y0, Phi0, z[kf], tau, prm, sh.rtol, sh.atol, sh.max_steps)
+    gf = field(sh.model, z[kf], yf, tau, prm)
+
+    r_term = terminal_residual(sh, yf, z[kf], prm)
+    dr_dy, dr_dK = jax.jacfwd(lambda yy, kk: terminal_residual(sh, yy, kk, prm), argnums=(0, 1))(yf, z[kf])
+    dyf_dz = jnp.insert(Phif[:, :-1], kf, gf, axis=1)
+    J_term = dr_dy @ dyf_dz
+    J_term = J_term.at[:, kf].add(dr_dK)
+    ftau_term = dr_dy @ Phif[:, -1]
+
+    r0 = transversality(sh, z, tau, prm)
+    dr0_dz, dr0_dtau = jax.jacfwd(lambda zz, tt: transversality(sh, zz, tt, prm), argnums=(0, 1))(z, tau)
+
+    f = jnp.concatenate([jnp.atleast_1d(r0), r_term])
+    J = jnp.concatenate([dr0_dz[None, :], J_term], axis=0)
+    ftau = jnp.concatenate([jnp.atleast_1d(dr0_dtau), ftau_term])
+    return f, J, ftau, nsteps, ok

@@ -1,0 +1,108 @@
+"""A physical transfer (SI, degrees) and its nondimensional form for the solvers.
+
+Units (spec 02-multirev §1, verified in §10 for §4.1): length unit DU = semi-major axis of the
+final orbit (the final-orbit radius for the circular targets of §4.1), μ = 1, time unit
+TU = √(DU³/μ), velocity unit DU/TU, mass unit m₀, force unit m₀·DU/TU². The printed §4.1
+costates are in these units.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import jax.numpy as jnp
+import numpy as np
+
+from .. import constants
+from ..elements import kepler_to_mee
+from ..errors import ConfigError
+
+
+@dataclass(frozen=True)
+class Orbit:
+    """Keplerian orbit: a [m], e, i, Ω (raan), ω (argp) [deg]."""
+    a: float
+    e: float
+    i: float
+    raan: float = 0.0
+    argp: float = 0.0
+
+    def check(self, key):
+        if not (math.isfinite(self.a) and self.a > 0):
+            raise ConfigError(f"{key}.a", self.a, "semi-major axis must be a positive length in metres")
+        if not (0.0 <= self.e < 1.0):
+            raise ConfigError(f"{key}.e", self.e, "eccentricity must be in [0, 1) (closed orbit)")
+        if not (0.0 <= self.i < 180.0):
+            raise ConfigError(f"{key}.i", self.i, "inclination must be in [0, 180) deg")
+
+    def mee5(self, du):
+        m = kepler_to_mee(self.a / du, self.e, math.radians(self.i), math.radians(self.raan),
+                          math.radians(self.argp), 0.0)
+        return np.asarray(m[:5])
+
+
+@dataclass(frozen=True)
+class Transfer:
+    initial: Orbit
+    final: Orbit
+    L0_deg: float
+    n_rev: float
+    m0: float
+    isp: float
+    thrust: float = float("nan")
+    mu: float = constants.MU_EARTH_THESIS
+    eps_final: float = 1e-5
+
+    def __post_init__(self):
+        self.initial.check("initial")
+        self.final.check("final")
+        for key, val in (("m0", self.m0), ("isp", self.isp), ("n_rev", self.n_rev), ("mu", self.mu)):
+            if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
+                raise ConfigError(key, val, "must be a positive number")
+        if not math.isnan(self.thrust) and not (math.isfinite(self.thrust) and self.thrust > 0):
+            raise ConfigError("thrust", self.thrust, "must be a positive force in newtons")
+        if not (0 < self.eps_final < 1):
+            raise ConfigError("eps_final", self.eps_final, "smoothing end value must be in (0, 1)")
+
+    # units
+    @property
+    def du(self):
+        return self.final.a
+
+    @property
+    def tu(self):
+        return math.sqrt(self.du**3 / self.mu)
+
+    @property
+    def vu(self):
+        return self.du / self.tu
+
+    @property
+    def force_unit(self):
+        return self.m0 * self.du / self.tu**2
+
+    @property
+    def c(self):
+        """Exhaust velocity c = Isp g0 [m/s]."""
+        return self.isp * constants.G0
+
+    @property
+    def delta_L(self):
+        return 2.0 * math.pi * self.n_rev
+
+    def units(self):
+        return {"length_m": self.du, "time_s": self.tu, "velocity_m_s": self.vu,
+                "mass_kg": self.m0, "force_N": self.force_unit, "mu_m3_s2": self.mu}
+
+    def params(self, thrust=None):
+        """Nondimensional problem data for the shooting maps (a pytree of float64 arrays)."""
+        L0 = math.radians(self.L0_deg)
+        T = self.thrust if thrust is None else thrust
+        return {k: jnp.asarray(v, dtype=jnp.float64) for k, v in {
+            "x0": self.initial.mee5(self.du), "xf": self.final.mee5(self.du),
+            "L0": L0, "Lf": L0 + self.delta_L, "c": self.c / self.vu,
+            "thrust": (0.0 if T is None or math.isnan(T) else T) / self.force_unit,
+            "thrust_a": 0.0, "thrust_b": 0.0, "eps_final": self.eps_final}.items()}
+
+    def as_dict(self):
+        return asdict(self)
