@@ -1,0 +1,284 @@
+r"""Station keeping at the Earth-Moon collinear libration points by l1 (LP) control (spec D2).
+
+Planar circular restricted three-body problem, rotating frame, nondimensional (Earth at (-mu, 0),
+Moon at (1 - mu, 0))::
+
+    x' = u,  y' = v,
+    u' =  2v + x - (1 - mu)(x + mu)/r1^3 - mu(x + mu - 1)/r2^3 + U1
+    v' = -2u + (1 - (1 - mu)/r1^3 - mu/r2^3) y + U2
+    r1 = sqrt((x + mu)^2 + y^2),  r2 = sqrt((x + mu - 1)^2 + y^2).
+
+Without control the energy E = (u^2 + v^2)/2 + E0(x, y), E0 = -(x^2 + y^2)/2 - (1 - mu)/r1 - mu/r2
+(= -C/2, C the Jacobi constant) is conserved.
+
+The l1 correction (spec D2, steps 1-8): shift to the point, Y = (x - x_L, y, u, v); linearise
+Y' = A Y + B U, B = [0 0; 0 0; 1 0; 0 1]; forward Euler Y[n+1] = C Y[n] + delta B U[n],
+C = I + delta A; Y_N = 0 gives the equality constraints
+
+    D U = E,  D = [C^(N-1) B, ..., C B, B] (U_i multiplies C^(N-1-i) B),  E = (Y_N - C^N Y0)/delta,
+
+and J = sum_n sum_k |U_k[n]| is minimised as the linear program min 1'(U+ + U-) s.t.
+D (U+ - U-) = E, U+- >= 0, solved by HiGHS (scipy.optimize.linprog). A basic optimal solution has
+at most four nonzero entries (four terminal conditions): the controls are impulses. They are
+applied in the nonlinear equations as velocity kicks delta*U[n] at the start of tick n, between
+which the equations are integrated by Dormand-Prince (scipy.integrate.solve_ivp, DOP853).
+The l2 criterion (sum of squares) has the closed-form least-norm solution U = D^+ E
+(numpy.linalg.lstsq); its fuel is measured by the same J.
+
+Libration points: roots of dU/dx on the x-axis (scipy.optimize.brentq); L4,5 = (1/2 - mu, +-sqrt(3)/2).
+Nothing here is hand-written numerics: LP, root finding and integration are scipy's.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq, linprog
+
+from ..errors import ConfigError, ConvergenceError
+
+B_MATRIX = np.array([[0.0, 0.0], [0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+
+
+# --------------------------------------------------------------------------------------------
+# Model
+# --------------------------------------------------------------------------------------------
+def _dUdx_axis(x, mu):
+    return x - (1 - mu) * (x + mu) / abs(x + mu) ** 3 - mu * (x + mu - 1) / abs(x + mu - 1) ** 3
+
+
+def libration_points(mu: float, xtol: float = 1e-15) -> dict:
+    """{'L1': (x, y), ..., 'L5': (x, y)}; collinear points by Brent's method on dU/dx = 0."""
+    if not (0 < mu < 0.5):
+        raise ConfigError("libration_lp.mu", mu, "must lie in (0, 0.5)")
+    eps = 1e-9
+    f = lambda x: _dUdx_axis(x, mu)  # noqa: E731
+    return {"L1": (brentq(f, -mu + eps, 1 - mu - eps, xtol=xtol, rtol=4 * np.finfo(float).eps), 0.0),
+            "L2": (brentq(f, 1 - mu + eps, 2.0, xtol=xtol, rtol=4 * np.finfo(float).eps), 0.0),
+            "L3": (brentq(f, -2.0, -mu - eps, xtol=xtol, rtol=4 * np.finfo(float).eps), 0.0),
+            "L4": (0.5 - mu, math.sqrt(3) / 2), "L5": (0.5 - mu, -math.sqrt(3) / 2)}
+
+
+def jacobian(mu: float, x: float, y: float) -> np.ndarray:
+    """Jacobian A of the uncontrolled vector field at (x, y, 0, 0), state order (x, y, u, v)."""
+    r1, r2 = math.hypot(x + mu, y), math.hypot(x + mu - 1, y)
+    a, b = x + mu, x + mu - 1
+    base = 1 - (1 - mu) / r1 ** 3 - mu / r2 ** 3
+    Uxx = base + 3 * (1 - mu) * a * a / r1 ** 5 + 3 * mu * b * b / r2 ** 5
+    Uyy = base + 3 * (1 - mu) * y * y / r1 ** 5 + 3 * mu * y * y / r2 ** 5
+    Uxy = 3 * (1 - mu) * a * y / r1 ** 5 + 3 * mu * b * y / r2 ** 5
+    return np.array([[0, 0, 1, 0], [0, 0, 0, 1], [Uxx, Uxy, 0, 2], [Uxy, Uyy, -2, 0]], dtype=np.float64)
+
+
+def eigen_summary(A: np.ndarray, imag_tol: float = 1e-9) -> dict:
+    """The Table-1 form: the real pair +-lambda and the imaginary pair(s) +-omega j."""
+    ev = np.linalg.eigvals(A)
+    real = sorted({round(abs(e.real), 14) for e in ev if abs(e.imag) < imag_tol})
+    imag = sorted({round(abs(e.imag), 14) for e in ev if abs(e.imag) >= imag_tol}, reverse=True)
+    return {"eigenvalues": ev, "real": real, "imag": imag}
+
+
+def rhs(t, s, mu, control=(0.0, 0.0)):
+    x, y, u, v = s
+    r1 = math.hypot(x + mu, y)
+    r2 = math.hypot(x + mu - 1, y)
+    r13, r23 = r1 ** 3, r2 ** 3
+    return [u, v,
+            2 * v + x - (1 - mu) * (x + mu) / r13 - mu * (x + mu - 1) / r23 + control[0],
+            -2 * u + (1 - (1 - mu) / r13 - mu / r23) * y + control[1]]
+
+
+def potential_E0(mu, x, y):
+    """E0 = -(x^2 + y^2)/2 - (1 - mu)/r1 - mu/r2 (= -C/2 at zero velocity); arrays allowed."""
+    r1 = np.hypot(x + mu, y)
+    r2 = np.hypot(x + mu - 1, y)
+    return -(x ** 2 + y ** 2) / 2 - (1 - mu) / r1 - mu / r2
+
+
+def energy(mu, s):
+    """E = (u^2 + v^2)/2 + E0(x, y), conserved by the uncontrolled flow (s may be 4 x n)."""
+    s = np.asarray(s)
+    return (s[2] ** 2 + s[3] ** 2) / 2 + potential_E0(mu, s[0], s[1])
+
+
+@dataclass
+class Integrator:
+    method: str = "DOP853"
+    rtol: float = 1e-11
+    atol: float = 1e-13
+
+    def __post_init__(self):
+        if self.method not in ("RK45", "DOP853"):
+            raise ConfigError("libration_lp.integrator.method", self.method,
+                              "must be a Dormand-Prince method: RK45 or DOP853")
+        for key in ("rtol", "atol"):
+            val = getattr(self, key)
+            if not (isinstance(val, (int, float)) and 0 < val < 1):
+                raise ConfigError(f"libration_lp.integrator.{key}", val, "must lie in (0, 1)")
+
+    def propagate(self, s0, t0, t1, mu, t_eval=None, events=None, dense_output=False):
+        sol = solve_ivp(rhs, (t0, t1), np.asarray(s0, dtype=np.float64), method=self.method,
+                        rtol=self.rtol, atol=self.atol, args=(mu,), t_eval=t_eval, events=events,
+                        dense_output=dense_output)
+        if sol.status < 0:
+            raise ConvergenceError(f"libration_lp.integrator: {sol.message}", {"t0": t0, "t1": t1})
+        return sol
+
+
+def uncontrolled(mu, s0, t_end, integ: Integrator, n_samples: int, stop_radius: float):
+    """Uncontrolled trajectory, stopped at a close approach (r1 or r2 < stop_radius)."""
+    def hit_earth(t, s, mu):
+        return math.hypot(s[0] + mu, s[1]) - stop_radius
+
+    def hit_moon(t, s, mu):
+        return math.hypot(s[0] + mu - 1, s[1]) - stop_radius
+    hit_earth.terminal = hit_moon.terminal = True
+    sol = integ.propagate(s0, 0.0, t_end, mu, events=[hit_earth, hit_moon], dense_output=True)
+    t = np.linspace(0.0, sol.t[-1], n_samples)
+    return t, sol.sol(t), sol
+
+
+# --------------------------------------------------------------------------------------------
+# The linear program
+# --------------------------------------------------------------------------------------------
+def discrete_system(A, N, delta):
+    """C = I + delta A, D (4 x 2N, U_i multiplies C^(N-1-i) B) and C^N."""
+    if not (isinstance(N, int) and N >= 2):
+        raise ConfigError("libration_lp.correction.N", N, "must be an integer >= 2")
+    if not (delta > 0):
+        raise ConfigError("libration_lp.correction.delta", delta, "must be > 0")
+    C = np.eye(4) + delta * A
+    blocks = [None] * N
+    P = B_MATRIX.copy()
+    for i in range(N - 1, -1, -1):
+        blocks[i] = P
+        P = C @ P
+    CN = np.linalg.matrix_power(C, N)
+    return C, np.hstack(blocks), CN
+
+
+@dataclass
+class Correction:
+    criterion: str
+    U: np.ndarray          # (N, 2)
+    fuel: float            # J = sum |U_k[n]|
+    objective: float       # LP (l1) or least-squares (l2) optimum value
+    dual: np.ndarray | None = None
+    stats: dict = field(default_factory=dict)
+
+    def nonzero(self, tol):
+        return [(k + 1, n, float(self.U[n, k])) for n in range(self.U.shape[0]) for k in range(2)
+                if abs(self.U[n, k]) > tol]
+
+
+def solve_correction(A, Y0, N, delta, criterion="l1", Y_N=None) -> Correction:
+    """Minimise J (l1, HiGHS LP) or sum U^2 (l2, least norm) subject to Y_N = target."""
+    C, D, CN = discrete_system(A, N, delta)
+    Y0 = np.asarray(Y0, dtype=np.float64)
+    Y_N = np.zeros(4) if Y_N is None else np.asarray(Y_N, dtype=np.float64)
+    E = (Y_N - CN @ Y0) / delta
+    t0 = time.perf_counter()
+    if criterion == "l1":
+        n = D.shape[1]
+        res = linprog(np.ones(2 * n), A_eq=np.hstack([D, -D]), b_eq=E, bounds=(0, None), method="highs")
+        if res.status != 0:
+            raise ConvergenceError(f"libration_lp: HiGHS failed ({res.message})", {"status": res.status})
+        u = res.x[:n] - res.x[n:]
+        return Correction("l1", u.reshape(N, 2), float(np.abs(u).sum()), float(res.fun),
+                          dual=np.asarray(res.eqlin.marginals),
+                          stats={"solver": "highs", "lp_time_s": time.perf_counter() - t0,
+                                 "iterations": int(getattr(res, "nit", -1)),
+                                 "residual": float(np.abs(D @ u - E).max()), "D": D, "E": E})
+    if criterion == "l2":
+        u, *_ = np.linalg.lstsq(D, E, rcond=None)
+        return Correction("l2", u.reshape(N, 2), float(np.abs(u).sum()), float(u @ u),
+                          stats={"solver": "lstsq", "lp_time_s": time.perf_counter() - t0,
+                                 "residual": float(np.abs(D @ u - E).max()), "D": D, "E": E})
+    raise ConfigError("libration_lp.criteria", criterion, "must be 'l1' or 'l2'")
+
+
+def apply_impulses(s0, U, delta, mu, integ: Integrator, tol=0.0, samples_per_tick: int = 1):
+    """Nonlinear flight over len(U) ticks: at tick n add delta*U[n] to (u, v), then integrate.
+
+    Integration runs between kicks only; returns the final state and samples on the tick grid."""
+    N = U.shape[0]
+    kicks = [n for n in range(N) if np.any(np.abs(U[n]) > tol)]
+    s = np.asarray(s0, dtype=np.float64).copy()
+    bounds = kicks + [N]
+    ts, ss = [0.0], [s.copy()]
+    if not kicks or kicks[0] != 0:
+        bounds = [0] + bounds
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        if a in kicks:
+            s[2:] += delta * U[a]
+        if b > a:
+            t_eval = np.linspace(a * delta, b * delta, (b - a) * samples_per_tick + 1)
+            sol = integ.propagate(s, a * delta, b * delta, mu, t_eval=t_eval)
+            s = sol.y[:, -1].copy()
+            ts.extend(sol.t[1:]), ss.extend(sol.y[:, 1:].T)
+    return s, np.array(ts), np.array(ss)
+
+
+def coast(s0, mu, integ: Integrator, point, radius, t_max, delta):
+    """Coast until |(x, y) - point| > radius (rounded up to the tick grid) or t_max."""
+    def leave(t, s, mu):
+        return math.hypot(s[0] - point[0], s[1] - point[1]) - radius
+    leave.terminal, leave.direction = True, 1
+    sol = integ.propagate(s0, 0.0, t_max, mu, events=[leave], dense_output=True)
+    if sol.t_events[0].size:
+        ticks = int(math.ceil(sol.t_events[0][0] / delta - 1e-9))
+        left = True
+    else:
+        ticks = int(math.floor(t_max / delta + 1e-9))
+        left = False
+    ticks = max(ticks, 1)
+    t_end = ticks * delta
+    if t_end > sol.t[-1]:       # the event fell just before the tick: integrate on to it
+        s_end = integ.propagate(sol.y[:, -1], sol.t[-1], t_end, mu).y[:, -1]
+    else:
+        s_end = sol.sol(t_end)
+    return ticks, left, s_end, sol
+
+
+def describe_impulses(nonzero) -> str:
+    """Compact description of nonzero U entries, e.g. 'U1[0]=-13.75476;U2[401]=4.74094'."""
+    return ";".join(f"U{k}[{n}]={v:.5f}" for k, n, v in sorted(nonzero, key=lambda e: (e[1], e[0])))
+
+
+def station_keeping(mu, point_name, point, Y0, N, delta, t_end, radius, max_corrections,
+                    criterion, integ: Integrator, nonzero_tol=1e-9, samples_per_tick=1) -> dict:
+    """Correct (N ticks) and coast (until the distance exceeds radius) over [0, t_end]."""
+    A = jacobian(mu, *point)
+    L = np.array([point[0], point[1], 0.0, 0.0])
+    s = L + np.asarray(Y0, dtype=np.float64)
+    t, corrections, ts, ss, marks = 0.0, [], [], [], []
+    while t < t_end - 1e-12 and len(corrections) < max_corrections:
+        Yc0 = s - L
+        corr = solve_correction(A, Yc0, N, delta, criterion)
+        s_end, tt, sss = apply_impulses(s, corr.U, delta, mu, integ, nonzero_tol if criterion == "l1" else 0.0,
+                                        samples_per_tick)
+        ts.append(t + tt), ss.append(sss)
+        marks.append({"t": t, "state": s.copy(), "kind": "correction"})
+        t += N * delta
+        s = s_end
+        YN = s - L
+        rec = {"point": point_name, "criterion": criterion, "correction": len(corrections) + 1,
+               "t_start": t - N * delta, "Y0": Yc0, "YN": YN,
+               "distance_after": float(math.hypot(YN[0], YN[1])), "fuel": corr.fuel,
+               "impulses": corr.nonzero(nonzero_tol) if criterion == "l1" else [],
+               "n_nonzero": int(np.sum(np.abs(corr.U) > nonzero_tol)),
+               "lp_residual": corr.stats["residual"], "coast_ticks": 0, "left_radius": False,
+               "U": corr.U}
+        if t < t_end - 1e-12:
+            ticks, left, s_c, sol = coast(s, mu, integ, point, radius, t_end - t, delta)
+            tt = np.linspace(0.0, ticks * delta, ticks * samples_per_tick + 1)
+            yy = np.array([sol.sol(min(x, sol.t[-1])) for x in tt[:-1]] + [s_c])
+            ts.append(t + tt), ss.append(yy)
+            rec["coast_ticks"], rec["left_radius"] = ticks, left
+            t += ticks * delta
+            s = s_c
+        corrections.append(rec)
+    return {"corrections": corrections, "t": np.concatenate(ts), "states": np.vstack(ss), "A": A}
