@@ -1,0 +1,214 @@
+"""The reproduction scoreboard: every study's reproduction table in one place.
+
+Each study writes its rows of the reproduction table to ``results/<study>/reproduction*.csv``
+with the columns of :data:`spaceopt.report.compare.COLUMNS` (design.md, principle 4). The
+scoreboard concatenates those tables (every published value beside ours, with relative
+difference, tolerance and pass/fail) and adds one summary line per study counting the rows by
+status::
+
+    status in {pass, fail, missing, info}
+
+``missing`` means the study has not produced our number yet; ``info`` means the published value
+is reported without a tolerance (a qualitative or "report only" entry). Any other status found
+in a table is counted under ``other`` so that nothing is dropped silently.
+
+Outputs are CSV (machine-readable), Markdown and LaTeX (a ``longtable`` fragment for the paper).
+"""
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+from ..errors import ArtifactError
+from .compare import COLUMNS
+from .paper import latex_escape
+
+STATUSES = ("pass", "fail", "missing", "info")
+SUMMARY_COLUMNS = ["study", "total", *STATUSES, "other"]
+
+
+def read_table(path) -> list[dict]:
+    """Rows of one reproduction CSV; raises ArtifactError when it lacks a required column."""
+    path = Path(path)
+    try:
+        with open(path, newline="") as fh:
+            reader = csv.DictReader(fh)
+            header = reader.fieldnames or []
+            missing = [c for c in COLUMNS if c not in header]
+            if missing:
+                raise ArtifactError(f"artifact={str(path)!r}: reproduction table lacks columns {missing}")
+            rows = [{c: (r.get(c) or "") for c in COLUMNS} for r in reader]
+    except FileNotFoundError:
+        raise ArtifactError(f"artifact={str(path)!r}: missing") from None
+    except (csv.Error, UnicodeDecodeError) as exc:
+        raise ArtifactError(f"artifact={str(path)!r}: unreadable CSV ({exc})") from None
+    for i, r in enumerate(rows):
+        if not r["study"]:
+            raise ArtifactError(f"artifact={str(path)!r}: row {i + 1} has an empty 'study'")
+    return rows
+
+
+def gather(paths) -> list[dict]:
+    """All rows of all tables, in a stable order (study, then file order within a study)."""
+    rows = []
+    for p in sorted({str(p) for p in paths}):
+        rows += read_table(p)
+    order = {s: i for i, s in enumerate(sorted({r["study"] for r in rows}))}
+    return sorted(rows, key=lambda r: order[r["study"]])   # stable: keeps file order in a study
+
+
+def summarize(rows: list[dict]) -> list[dict]:
+    """One line per study with counts per status, plus a final ``all`` line."""
+    out = {}
+    for r in rows:
+        s = out.setdefault(r["study"], {c: 0 for c in SUMMARY_COLUMNS[1:]})
+        s["total"] += 1
+        s[r["status"] if r["status"] in STATUSES else "other"] += 1
+    lines = [{"study": k, **v} for k, v in sorted(out.items())]
+    total = {c: sum(line[c] for line in lines) for c in SUMMARY_COLUMNS[1:]}
+    return lines + [{"study": "all", **total}]
+
+
+# ----------------------------------------------------------------------------- formatting
+
+def fmt_number(text: str, digits: int = 10) -> str:
+    """A CSV number as a short human string (``repr`` floats are long); text passes through."""
+    if text in ("", None):
+        return ""
+    try:
+        x = float(text)
+    except ValueError:
+        return str(text)
+    if math.isnan(x) or math.isinf(x):
+        return str(x)
+    if float(x).is_integer() and abs(x) < 1e15 and "e" not in str(text).lower() and "." not in str(text):
+        return str(int(x))
+    return f"{x:.{digits}g}"
+
+
+def fmt_rel(text: str) -> str:
+    if text in ("", None):
+        return ""
+    try:
+        return f"{float(text):.2e}"
+    except ValueError:
+        return str(text)
+
+
+DISPLAY = [("case", "case"), ("quantity", "quantity"), ("unit", "unit"), ("published", "published"),
+           ("ours", "ours"), ("rel_diff", "rel. diff."), ("tolerance", "tolerance"),
+           ("status", "status"), ("ref", "ref")]
+
+
+def _display_row(r: dict) -> dict:
+    d = dict(r)
+    d["published"], d["ours"] = fmt_number(r["published"]), fmt_number(r["ours"])
+    d["rel_diff"] = fmt_rel(r["rel_diff"])
+    return d
+
+
+def _md_cell(x) -> str:
+    return str(x).replace("|", "\\|").replace("\n", " ")
+
+
+def to_markdown(rows: list[dict], summary: list[dict]) -> str:
+    out = ["# Reproduction scoreboard", "",
+           "Every published value beside ours (generated; do not edit).", "",
+           "## Summary per study", "",
+           "| " + " | ".join(SUMMARY_COLUMNS) + " |",
+           "|" + "|".join("---" if c == "study" else "---:" for c in SUMMARY_COLUMNS) + "|"]
+    out += ["| " + " | ".join(_md_cell(s[c]) for c in SUMMARY_COLUMNS) + " |" for s in summary]
+    out += ["", "## All values", ""]
+    for study in sorted({r["study"] for r in rows}):
+        out += [f"### {study}", "", "| " + " | ".join(h for _, h in DISPLAY) + " | note |",
+                "|" + "|".join("---" for _ in range(len(DISPLAY) + 1)) + "|"]
+        for r in rows:
+            if r["study"] == study:
+                d = _display_row(r)
+                out.append("| " + " | ".join(_md_cell(d[k]) for k, _ in DISPLAY) + f" | {_md_cell(r['note'])} |")
+        out.append("")
+    if not rows:
+        out += ["No study has produced a reproduction table yet.", ""]
+    return "\n".join(out)
+
+
+_STATUS_TEX = {"pass": r"\textsf{pass}", "fail": r"\textbf{\textsf{FAIL}}",
+               "missing": r"\textit{missing}", "info": r"\textsf{info}"}
+
+
+def to_latex(rows: list[dict], summary: list[dict]) -> str:
+    """A LaTeX fragment: a summary table and one ``longtable`` with every value.
+
+    Needs ``booktabs`` and ``longtable`` in the preamble. Notes go to a footnote-sized column.
+    """
+    e = latex_escape
+    out = ["% Generated by workflow/scripts/scoreboard.py; do not edit.",
+           r"\begin{table}[htbp]\centering\small",
+           r"\caption{Reproduction summary: number of published values per study by status.}",
+           r"\label{tab:scoreboard-summary}",
+           r"\begin{tabular}{l" + "r" * (len(SUMMARY_COLUMNS) - 1) + "}", r"\toprule",
+           " & ".join(e(c) for c in SUMMARY_COLUMNS) + r" \\", r"\midrule"]
+    for s in summary:
+        if s["study"] == "all":
+            out.append(r"\midrule")
+        out.append(" & ".join(e(str(s[c])) for c in SUMMARY_COLUMNS) + r" \\")
+    out += [r"\bottomrule", r"\end{tabular}", r"\end{table}", ""]
+    if not rows:
+        out.append(r"\noindent No study has produced a reproduction table yet.")
+        return "\n".join(out) + "\n"
+    out.append(rows_longtable(rows, r"Every published value beside ours. rel.\ diff.\ = (ours $-$ "
+                              r"published)/$|$published$|$; the source of each value is in the last column.",
+                              "tab:scoreboard"))
+    return "\n".join(out)
+
+
+def rows_longtable(rows: list[dict], caption: str, label: str, show_study: bool = True) -> str:
+    """Reproduction rows as a ``longtable`` (caption is LaTeX; needs booktabs and longtable)."""
+    e = latex_escape
+    cols = [k for k, _ in DISPLAY if k != "ref"]
+    head = " & ".join(e(h) for k, h in DISPLAY if k != "ref") + r" & ref / note \\"
+    out = [r"{\scriptsize\setlength{\tabcolsep}{3pt}",
+           r"\begin{longtable}{@{}lllrrrll>{\raggedright\arraybackslash}p{0.22\linewidth}@{}}",
+           f"\\caption{{{caption}}}\\label{{{label}}}\\\\",
+           r"\toprule", head, r"\midrule", r"\endfirsthead",
+           r"\toprule", head, r"\midrule", r"\endhead",
+           r"\bottomrule", r"\endfoot"]
+    current = None
+    for r in rows:
+        if show_study and r["study"] != current:
+            current = r["study"]
+            out.append(r"\multicolumn{9}{@{}l}{\textbf{" + e(current) + r"}} \\[1pt]")
+        d = _display_row(r)
+        cells = [e(d[k]) if k != "status" else _STATUS_TEX.get(d[k], e(d[k])) for k in cols]
+        note = e(r["ref"]) + (("; " + e(r["note"])) if r["note"] else "")
+        out.append(" & ".join(cells) + " & " + note + r" \\")
+    out += [r"\end{longtable}}", ""]
+    return "\n".join(out)
+
+
+def write_scoreboard(rows: list[dict], summary: list[dict], csv_path, md_path, tex_path,
+                     summary_csv_path=None) -> None:
+    """Write the full scoreboard (CSV, Markdown, LaTeX) and optionally the summary CSV."""
+    for p in (csv_path, md_path, tex_path, summary_csv_path):
+        if p is not None:
+            Path(p).parent.mkdir(parents=True, exist_ok=True)
+    with open(csv_path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=COLUMNS, lineterminator="\n")
+        w.writeheader()
+        w.writerows(rows)
+    if summary_csv_path is not None:
+        with open(summary_csv_path, "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=SUMMARY_COLUMNS, lineterminator="\n")
+            w.writeheader()
+            w.writerows(summary)
+    Path(md_path).write_text(to_markdown(rows, summary) + "\n")
+    Path(tex_path).write_text(to_latex(rows, summary))
+
+
+def build(tables, csv_path, md_path, tex_path, summary_csv_path=None) -> list[dict]:
+    """Gather ``tables`` and write the scoreboard; returns the summary lines."""
+    rows = gather(tables)
+    summary = summarize(rows)
+    write_scoreboard(rows, summary, csv_path, md_path, tex_path, summary_csv_path)
+    return summary

@@ -1,0 +1,25 @@
+"""Render config/errata.yaml as the paper's errata fragment (LaTeX).
+
+Usage: python workflow/scripts/paper_errata.py --errata config/errata.yaml --out errata.tex
+"""
+import argparse
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _step import run_step  # noqa: E402
+
+from spaceopt.report.paper import errata_tex, load_errata  # noqa: E402
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--errata", required=True)
+    ap.add_argument("--out", required=True)
+    a = ap.parse_args(argv)
+    Path(a.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(a.out).write_text(errata_tex(load_errata(a.errata)))
+
+
+if __name__ == "__main__":
+    run_step(main)
