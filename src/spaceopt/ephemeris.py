@@ -334,41 +334,54 @@ class ChebyshevEphemeris:
             raise ConfigError(key, label, f"outside ephemeris window {self.name!r} "
                               f"({tdb_seconds_to_iso(self.t_min)} to {tdb_seconds_to_iso(self.t_max)})")
 
-    def _guard(self, t, value):
-        ok = (t >= self.t_min) & (t <= self.t_max)
-        return jnp.where(ok, value, jnp.nan)
-
     # -- positions ----------------------------------------------------------------------------
     def moon(self, t):
         """Geocentric Moon position [m], ICRS axes, at t [s TDB past J2000]."""
-        self.check_time(t)
-        t = jnp.asarray(t, dtype=jnp.float64)
-        r = 1e3 * chebyshev_series(self.moon_coef, self.moon_start, self.moon_len, t)
-        return self._guard(t, r)
+        return self.position("moon", t)
 
     def sun(self, t):
         """Geocentric Sun position [m], ICRS axes, at t [s TDB past J2000]."""
-        self.check_time(t)
-        t = jnp.asarray(t, dtype=jnp.float64)
-        moon_km = chebyshev_series(self.moon_coef, self.moon_start, self.moon_len, t)
-        se_km = chebyshev_series(self.sun_emb_coef, self.sun_emb_start, self.sun_emb_len, t)
-        return self._guard(t, 1e3 * (se_km + self.earth_share * moon_km))
+        return self.position("sun", t)
 
     def position(self, body: str, t):
         """Geocentric position [m] of ``body`` in {'moon', 'sun'} at t [s TDB past J2000]."""
-        if body == "moon":
-            return self.moon(t)
-        if body == "sun":
-            return self.sun(t)
-        raise ConfigError("third_bodies", body, f"unknown body; expected one of {list(BODIES)}")
+        _check_body(body)
+        self.check_time(t)
+        return _position(self, body, jnp.asarray(t, dtype=jnp.float64))
 
     def velocity(self, body: str, t):
         """Geocentric velocity [m/s] = d position/dt by forward-mode AD."""
+        _check_body(body)
         self.check_time(t)
-        return jax.jacfwd(lambda s: self.position(body, s))(jnp.asarray(t, dtype=jnp.float64))
+        return _velocity(self, body, jnp.asarray(t, dtype=jnp.float64))
 
     def position_velocity(self, body: str, t):
         """(position [m], velocity [m/s]) in one forward-mode pass (jax.jvp with dt = 1)."""
+        _check_body(body)
         self.check_time(t)
-        t = jnp.asarray(t, dtype=jnp.float64)
-        return jax.jvp(lambda s: self.position(body, s), (t,), (jnp.ones_like(t),))
+        return _position_velocity(self, body, jnp.asarray(t, dtype=jnp.float64))
+
+
+def _check_body(body):
+    if body not in BODIES:
+        raise ConfigError("third_bodies", body, f"unknown body; expected one of {list(BODIES)}")
+
+
+def _position_raw(eph: ChebyshevEphemeris, body: str, t):
+    moon_km = chebyshev_series(eph.moon_coef, eph.moon_start, eph.moon_len, t)
+    if body == "moon":
+        r_km = moon_km
+    else:
+        se_km = chebyshev_series(eph.sun_emb_coef, eph.sun_emb_start, eph.sun_emb_len, t)
+        r_km = se_km + eph.earth_share * moon_km
+    ok = (t >= eph.t_min) & (t <= eph.t_max)
+    return jnp.where(ok, 1e3 * r_km, jnp.nan)
+
+
+# jitted once per (window shape, body); nested inside a caller's jit they are simply inlined
+_position = jax.jit(_position_raw, static_argnums=1)
+_velocity = jax.jit(lambda eph, body, t: jax.jacfwd(_position_raw, argnums=2)(eph, body, t),
+                    static_argnums=1)
+_position_velocity = jax.jit(
+    lambda eph, body, t: jax.jvp(lambda s: _position_raw(eph, body, s), (t,), (jnp.ones_like(t),)),
+    static_argnums=1)
