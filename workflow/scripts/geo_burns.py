@@ -1,0 +1,156 @@
+"""D1 step: the three schemes of the GEO insertion study (spec 05-discrete.md §D1).
+
+Snakemake script: params.cfg (the geo_burns config section), params.rel_published (case prefix
+of the published file); input.published; output: csv, grid, sensitivity, json, switching (npz),
+reproduction, figures dir. All physics in spaceopt.discrete.geo_burns.
+"""
+import csv
+import sys
+import time
+from contextlib import redirect_stderr
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _step import run_step  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from spaceopt.artifacts import provenance, write_json, write_npz  # noqa: E402
+from spaceopt.discrete import geo_burns as gb  # noqa: E402
+from spaceopt.report.compare import COLUMNS, compare, published_lookup, write_rows  # noqa: E402
+from spaceopt.report.figures import save_figure  # noqa: E402
+
+
+def _write_csv(path, rows, columns):
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=columns, lineterminator="\n", extrasaction="ignore")
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: (repr(float(v)) if isinstance(v, (float, np.floating)) else v)
+                        for k, v in r.items()})
+
+
+def main(sm):
+    t_start = time.time()
+    cfg = sm.params.cfg
+    pub = published_lookup(sm.input.published)
+    counts = (int(pub[("d1_classical", "perigee_burns")]["value"]),
+              int(pub[("d1_classical", "apogee_burns")]["value"]))
+    print("D1: scheme grid ...", file=sys.stderr)
+    res = gb.run_study(cfg, published_counts=counts)
+    recs, schemes = res["records"], res["schemes"]
+    order = ["classical", "start_penalised", "flown", "classical_published_counts"]
+    _write_csv(sm.output.csv, [gb.csv_row(recs[n]) for n in order], gb.GEO_CSV_COLUMNS)
+    _write_csv(sm.output.grid, res["grid"], ["n_p", "n_a", "time_s", "fuel_kg", "terminal_penalty_kg",
+                                             "cost_classical_kg", "cost_penalised_kg", "feasible"])
+    sens_cols = ["mass_flow_kg_s"] + gb.GEO_CSV_COLUMNS + ["final_ecc", "rho_t1_miss_m"]
+    _write_csv(sm.output.sensitivity, [dict(gb.csv_row(r), mass_flow_kg_s=r["mass_flow_kg_s"],
+                                            final_ecc=r["final_ecc"], rho_t1_miss_m=r["rho_t1_miss_m"])
+                                       for r in res["sensitivity"]], sens_cols)
+
+    # switching function along the optimised schemes
+    nsamp = int(cfg["numerics"]["switching_samples_per_arc"])
+    sw, arrays = {}, {}
+    figdir = Path(sm.params.figdir)
+    for name in ("classical", "start_penalised", "classical_published_counts"):
+        print(f"D1: switching function along {name} ...", file=sys.stderr)
+        k = gb.switching_function(schemes[name], nsamp)
+        sw[name] = {key: v for key, v in k.items() if key not in ("t", "k", "burn")}
+        arrays.update({f"{name}_t_s": k["t"], f"{name}_k": k["k"], f"{name}_burn": k["burn"]})
+        s = schemes[name]
+        save_figure(gb.plot_switching(k, f"D1 {name}: switching function k(t), "
+                                         f"{s.n_p}+{s.n_a} burns (thrust where k >= 1)"),
+                    figdir / f"geo_switching_{name}.png")
+    for name in order:
+        save_figure(gb.plot_orbit_sequence(schemes[name]), figdir / f"geo_orbits_{name}.png")
+    write_npz(sm.output.switching, **arrays)
+
+    # reproduction rows (D1 part of the published file)
+    c, cp, fl = recs["classical"], recs["classical_published_counts"], recs["flown"]
+    ours = {("d1_classical", q): c[q] for q in ("burns", "perigee_burns", "apogee_burns", "time_s", "fuel_kg")}
+    ours.update({("d1_classical_published_counts", "perigee_burn_s"): cp["perigee_burn_s"][0],
+                 ("d1_classical_published_counts", "perigee_last_burn_s"): cp["perigee_burn_s"][-1],
+                 ("d1_classical_published_counts", "apogee_burn_s"): cp["apogee_burn_s"][0],
+                 ("d1_classical_published_counts", "apogee_last_burn_s"): cp["apogee_burn_s"][-1],
+                 ("d1_classical_published_counts", "time_s"): cp["time_s"],
+                 ("d1_classical_published_counts", "fuel_kg"): cp["fuel_kg"],
+                 ("d1_classical_published_counts", "max_apse_rotation_deg"): cp["max_apse_rotation_deg"],
+                 ("d1_flown", "fuel_kg"): fl["fuel_kg"],
+                 ("d1_flown", "fuel_with_penalty_kg"): fl["fuel_with_penalty_kg"],
+                 ("d1_flown", "starts_within_stage_limit"):
+                     "yes" if fl["burns"] <= int(cfg["flown"]["max_starts"]) else "no"})
+    sens = {(r["scheme"], r["mass_flow_kg_s"]): r for r in res["sensitivity"]}
+    flows = sorted({r["mass_flow_kg_s"] for r in res["sensitivity"]})
+
+    def at_flows(scheme, key, fmt="{:.1f}"):
+        return "; ".join(f"at {f:g} kg/s: " + (fmt.format(sens[(scheme, f)][key]) if not isinstance(
+            sens[(scheme, f)][key], list) else "/".join(f"{d:.1f}" for d in sens[(scheme, f)][key]))
+                         for f in flows if (scheme, f) in sens)
+
+    flow_o, flow_f = c["mass_flow_kg_s"], fl["mass_flow_kg_s"]
+    why_time = ("our coast arcs are exact Kepler times between apsides; the published time is "
+                "~1.4 GEO periods longer than the published burn structure needs in this model "
+                "(cause not identified; likely a different time bookkeeping in the paper)")
+    notes = {
+        ("d1_classical", "burns"): (f"our optimum over n_p in {cfg['search']['perigee_burns']}, n_a in "
+                                    f"{cfg['search']['apogee_burns']} at {flow_o:g} kg/s, subject to time <= t1; "
+                                    "fuel falls monotonically with the number of perigee burns, so the "
+                                    "count is set by t1, and with exact Kepler coasts t1 admits more burns "
+                                    "than the paper's bookkeeping did; " + why_time),
+        ("d1_classical", "perigee_burns"): "see burns",
+        ("d1_classical", "apogee_burns"): "see burns",
+        ("d1_classical", "time_s"): "time of our optimum (t1 is the binding constraint, as in the paper)",
+        ("d1_classical", "fuel_kg"): f"mass flow {flow_o:g} kg/s; " + at_flows("classical", "fuel_kg"),
+        ("d1_classical_published_counts", "perigee_burn_s"):
+            f"mass flow {flow_o:g} kg/s; perigee burns " + at_flows("classical_published_counts", "perigee_burn_s"),
+        ("d1_classical_published_counts", "apogee_burn_s"):
+            f"mass flow {flow_o:g} kg/s; apogee burns " + at_flows("classical_published_counts", "apogee_burn_s"),
+        ("d1_classical_published_counts", "time_s"): why_time,
+        ("d1_classical_published_counts", "fuel_kg"):
+            f"mass flow {flow_o:g} kg/s (the paper's implied flow); " + at_flows("classical_published_counts", "fuel_kg"),
+        ("d1_classical_published_counts", "max_apse_rotation_deg"):
+            "ours: angle between the new apse line and the burn centre, largest over burns (the last "
+            "perigee burn); the paper's definition of the rotation is not given",
+        ("d1_flown", "fuel_kg"): f"mass flow {flow_f:g} kg/s; " + at_flows("flown", "fuel_kg"),
+        ("d1_flown", "fuel_with_penalty_kg"): f"fuel + lambda3 * 3 starts; mass flow {flow_f:g} kg/s",
+    }
+    rows = [r for r in compare(sm.input.published, ours, notes) if r["case"].startswith("d1_")]
+    # held-back published values (start-penalised scheme): our numbers, marked as such
+    sp = recs["start_penalised"]
+    held = [("burns", sp["burns"], ""), ("perigee_burns", sp["perigee_burns"], ""),
+            ("apogee_burns", sp["apogee_burns"], ""),
+            ("perigee_burn_s", "/".join(f"{d:.2f}" for d in sp["perigee_burn_s"]), "s"),
+            ("apogee_burn_s", "/".join(f"{d:.2f}" for d in sp["apogee_burn_s"]), "s"),
+            ("time_s", sp["time_s"], "s"), ("fuel_kg", sp["fuel_kg"], "kg"),
+            ("fuel_with_penalty_kg", sp["fuel_with_penalty_kg"], "kg"),
+            ("saving_vs_classical_with_penalty_kg", c["fuel_with_penalty_kg"] - sp["fuel_with_penalty_kg"], "kg"),
+            ("saving_vs_classical_published_counts_with_penalty_kg",
+             cp["fuel_with_penalty_kg"] - sp["fuel_with_penalty_kg"], "kg"),
+            ("extra_fuel_vs_classical_kg", sp["fuel_kg"] - c["fuel_kg"], "kg"),
+            ("saving_vs_flown_with_penalty_kg", fl["fuel_with_penalty_kg"] - sp["fuel_with_penalty_kg"], "kg")]
+    for q, v, unit in held:
+        rows.append({k: "" for k in COLUMNS} | {
+            "study": "discrete_geo_bellman", "case": "d1_start_penalised", "quantity": q, "unit": unit,
+            "published": "held back", "ours": v, "status": "info",
+            "ref": "05-discrete.md §D1, Problem 2 (values held back)",
+            "note": f"lambda3 = {res['lambda3']:g} kg per start, mass flow {flow_o:g} kg/s; "
+                    "fuel_with_penalty = fuel + lambda3 * starts"})
+    write_rows(sm.output.reproduction, rows)
+
+    payload = {
+        "study": "geo_burns", "units": "SI (m, s, kg, rad; angles in tables in deg)",
+        "schemes": recs, "switching_check": sw, "optimum_at_search_edge": res["optimum_at_search_edge"],
+        "sensitivity": res["sensitivity"],
+        "method": "approximate method of the paper: Kepler coasts, burns centred on apsides "
+                  "integrated with scipy RK45 (Dormand-Prince 5(4)); integer-second burn durations, "
+                  "last burn of each series trimmed with brentq",
+        "provenance": provenance(cfg, time.time() - t_start),
+    }
+    write_json(sm.output.json, payload, companions={"switching": sm.output.switching})
+    print(f"D1: done in {time.time() - t_start:.1f} s", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    with open(snakemake.log[0], "w") as _log, redirect_stderr(_log):  # noqa: F821
+        run_step(main, snakemake)  # noqa: F821
