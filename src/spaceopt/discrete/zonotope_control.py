@@ -325,6 +325,23 @@ def one_step_residual(dt: float, x_tab: np.ndarray, u_tab: np.ndarray) -> np.nda
     return np.array(res)
 
 
+def published_mp_tables(lookup: dict, controls) -> dict:
+    """{control: (x (n+1, 3), u (n, 3))} from a ``published_lookup`` of the published file (cases
+    ``d4_mp_<control>``, quantities ``x<i>[<k>]`` and ``u<i>[<k>]``)."""
+    out = {}
+    for c in controls:
+        ks = sorted({int(q.split("[")[1].rstrip("]")) for (case, q) in lookup
+                     if case == f"d4_mp_{c}" and q.startswith("x")})
+        if not ks:
+            continue
+        x = np.array([[lookup[(f"d4_mp_{c}", f"x{i + 1}[{k}]")]["value"] for i in range(3)] for k in ks],
+                     dtype=np.float64)
+        u = np.array([[lookup[(f"d4_mp_{c}", f"u{i + 1}[{k}]")]["value"] for i in range(3)] for k in ks[:-1]],
+                     dtype=np.float64)
+        out[c] = (x, u)
+    return out
+
+
 def infer_dt(tables: list[tuple[np.ndarray, np.ndarray]], grid: tuple[float, float, int],
              xatol: float = 1e-10) -> dict:
     """Least-squares dt: minimise the summed squared one-step residuals of all tables over dt.
@@ -347,3 +364,196 @@ def infer_dt(tables: list[tuple[np.ndarray, np.ndarray]], grid: tuple[float, flo
     per_table = [float(np.sqrt(np.mean(one_step_residual(res.x, x, u) ** 2))) for x, u in tables]
     return {"dt": float(res.x), "rms": float(np.sqrt(res.fun / n_entries)), "rms_per_table": per_table,
             "scan_dt": ts, "scan_rms": np.sqrt(vals / n_entries)}
+
+
+# --------------------------------------------------------------------------------------------
+# The study (config -> results) and its figures (saved by the workflow script)
+# --------------------------------------------------------------------------------------------
+def time_method(fn, repeats: int) -> dict:
+    """Median, min and max wall time of ``fn()`` over ``repeats`` calls (perf_counter)."""
+    ts = []
+    for _ in range(int(repeats)):
+        t0 = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t0)
+    return {"median_s": float(np.median(ts)), "min_s": float(np.min(ts)), "max_s": float(np.max(ts)),
+            "repeats": int(repeats)}
+
+
+def check_config(cfg: dict) -> None:
+    x0 = cfg.get("x0")
+    if not (isinstance(x0, (list, tuple)) and len(x0) == 3):
+        raise ConfigError("orbit_correction.x0", x0, "must be a list of three numbers")
+    for c in cfg.get("controls", []):
+        if c not in CONTROLS:
+            raise ConfigError("orbit_correction.controls", c, f"must be one of {CONTROLS}")
+        a = cfg.get("a_max", {}).get(c)
+        if not (isinstance(a, (int, float)) and a > 0):
+            raise ConfigError(f"orbit_correction.a_max.{c}", a, "must be a positive number")
+    dt = cfg.get("dt")
+    if not (dt == "infer" or (isinstance(dt, (int, float)) and dt > 0)):
+        raise ConfigError("orbit_correction.dt", dt, "must be a positive number or 'infer'")
+    n_max = cfg.get("n_max")
+    if not (isinstance(n_max, int) and 1 <= n_max <= 12):
+        raise ConfigError("orbit_correction.n_max", n_max, "must be an integer in [1, 12]")
+
+
+def resolve_dt(cfg: dict, published_tables: dict | None) -> tuple[float, dict | None]:
+    """dt from the config, or inferred from the published MP tables and rounded (see infer_dt)."""
+    if cfg["dt"] != "infer":
+        return float(cfg["dt"]), None
+    if not published_tables:
+        raise ConfigError("orbit_correction.dt", "infer", "needs the published MP tables")
+    di = cfg["dt_inference"]
+    fit = infer_dt(list(published_tables.values()), tuple(di["grid"]))
+    fit["per_control"] = {c: infer_dt([tab], tuple(di["grid"]))["dt"] for c, tab in published_tables.items()}
+    step = di["round_to"]
+    dt = round(fit["dt"] / step) * step if step > 0 else fit["dt"]
+    fit["dt_rounded"] = dt
+    fit["tables"] = published_tables
+    fit["rms_at_rounded"] = float(np.sqrt(np.mean(np.concatenate(
+        [one_step_residual(dt, x, u).ravel() for x, u in published_tables.values()]) ** 2)))
+    return dt, fit
+
+
+def run_study(cfg: dict, published_tables: dict | None = None, timing: bool = True) -> dict:
+    """All D4 numbers from the ``orbit_correction`` config section (no I/O).
+
+    ``published_tables`` maps a control to its published MP (x, u) table; it is used only to infer
+    dt (when cfg['dt'] == 'infer') and never as a starting guess."""
+    check_config(cfg)
+    dt, fit = resolve_dt(cfg, published_tables)
+    x0 = np.asarray(cfg["x0"], dtype=np.float64)
+    out = {"dt": dt, "dt_fit": fit, "solutions": {}, "membership": {}, "timing": {}, "zonotopes": {}}
+    for c in cfg["controls"]:
+        a = cfg["a_max"][c]
+        mp = solve_mp(x0, dt, c, a, cfg["n_max"], cfg["gauge_tol"])
+        dp = solve_dp(x0, dt, c, a, cfg["n_max"], cfg["gauge_tol"])
+        out["solutions"][("maximum_principle", c)] = mp
+        out["solutions"][("dynamic_programming", c)] = dp
+        out["membership"][("maximum_principle", c)] = mp_membership_gauges(mp, dt, a)
+        out["membership"][("dynamic_programming", c)] = dp_membership_gauges(dp, dt, a)
+        if timing:
+            out["timing"][("maximum_principle", c)] = time_method(
+                lambda: solve_mp(x0, dt, c, a, cfg["n_max"], cfg["gauge_tol"]), cfg["timing_repeats"])
+            out["timing"][("dynamic_programming", c)] = time_method(
+                lambda: solve_dp(x0, dt, c, a, cfg["n_max"], cfg["gauge_tol"]), cfg["timing_repeats"])
+        for n in cfg["zonotope_plot_N"]:
+            G = zonotope_generators(dt, c, n, a)
+            out["zonotopes"][(c, n)] = {"generators": G, "vertices": zonotope_vertices(G),
+                                        "gauge_x0": gauge_generators(x0, G)}
+    return out
+
+
+def table_rows(study: dict) -> list[dict]:
+    """Rows of orbit_correction.csv: method, control, k, x1..x3, u1..u3 (u empty at the last k)."""
+    rows = []
+    for (method, c), s in study["solutions"].items():
+        for k in range(s.x.shape[0]):
+            row = {"method": method, "control": c, "k": k,
+                   **{f"x{i + 1}": float(s.x[k, i]) for i in range(3)}}
+            row.update({f"u{i + 1}": (float(s.u[k, i]) if k < s.u.shape[0] else "") for i in range(3)})
+            rows.append(row)
+    return rows
+
+
+def reproduced_numbers(study: dict) -> dict:
+    ours = {}
+    for (method, c), s in study["solutions"].items():
+        if method == "maximum_principle":
+            for k in range(s.x.shape[0]):
+                for i in range(3):
+                    ours[(f"d4_mp_{c}", f"x{i + 1}[{k}]")] = float(s.x[k, i])
+                    if k < s.u.shape[0]:
+                        ours[(f"d4_mp_{c}", f"u{i + 1}[{k}]")] = float(s.u[k, i])
+        ours[(f"d4_nmin_{c}", method)] = s.n_min_original
+        t = study["timing"].get((method, c))
+        if t:
+            ours[(f"d4_time_{c}", f"{method}_s")] = t["median_s"]
+    ours[("d4_dt", "dt_hint")] = study["dt"]
+    return ours
+
+
+def figures(study: dict, cfg: dict) -> dict:
+    import matplotlib.pyplot as plt
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+    figs = {}
+    x0 = np.asarray(cfg["x0"])
+    for c in cfg["controls"]:
+        ns = cfg["zonotope_plot_N"]
+        fig = plt.figure(figsize=(4 * len(ns), 4.2))
+        for j, n in enumerate(ns):
+            ax = fig.add_subplot(1, len(ns), j + 1, projection="3d")
+            V = study["zonotopes"][(c, n)]["vertices"]
+            if V.shape[0] >= 4:
+                hull = ConvexHull(V)
+                ax.add_collection3d(Poly3DCollection(V[hull.simplices], alpha=0.25, facecolor="tab:blue",
+                                                     edgecolor="k", linewidths=0.15))
+            ax.scatter(*x0, color="r", s=12, label="x0")
+            lim = np.abs(np.vstack([V, x0])).max(axis=0) * 1.05
+            ax.set_xlim(-lim[0], lim[0])
+            ax.set_ylim(-lim[1], lim[1])
+            ax.set_zlim(-lim[2], lim[2])
+            g = study["zonotopes"][(c, n)]["gauge_x0"]
+            ax.set_title(f"X({n}, 0), {c}: {V.shape[0]} vertices\ngauge(x0) = {g:.4f}"
+                         f" ({'inside' if g <= 1 else 'outside'})", fontsize=8)
+            ax.set_xlabel("dr", fontsize=7)
+            ax.set_ylabel("dv_R", fontsize=7)
+            ax.set_zlabel("dv_T", fontsize=7)
+            ax.tick_params(labelsize=5)
+        figs[f"zonotopes_{c}"] = fig
+
+    fit = study["dt_fit"]
+    if fit is not None:
+        fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+        axes[0].semilogy(fit["scan_dt"], fit["scan_rms"], lw=0.8)
+        axes[0].axvline(fit["dt"], color="r", ls="--", lw=0.8, label=f"least squares dt = {fit['dt']:.6f}")
+        axes[0].set_xlabel("candidate dt")
+        axes[0].set_ylabel("RMS of x(k+1) - A(k; dt) x(k) - u(k)")
+        axes[0].set_title("dt fit on the published MP tables (A(even) = At², A(odd) = At)", fontsize=8)
+        axes[0].legend(fontsize=7)
+        for c, mk in zip(cfg["controls"], ("o", "s")):
+            s = study["solutions"].get(("maximum_principle", c))
+            pub = (fit.get("tables") or {}).get(c)
+            if s is None or pub is None:
+                continue
+            for i in range(3):
+                axes[1].plot(range(s.x.shape[0]), s.x[:, i], lw=0.7, color=f"C{i}")
+                axes[1].plot(range(pub[0].shape[0]), pub[0][:, i], mk, mfc="none", color=f"C{i}", ms=5,
+                             label=f"published x{i + 1} ({c})")
+        axes[1].set_xlabel("regrouped step k")
+        axes[1].set_title(f"MP trajectories at dt = {study['dt']:g} (lines) vs published (markers); "
+                          f"RMS one-step residual {fit['rms_at_rounded']:.1e}", fontsize=8)
+        axes[1].legend(fontsize=6, ncol=2)
+        fig.tight_layout()
+        figs["dt_fit"] = fig
+
+    fig, axes = plt.subplots(1, len(cfg["controls"]), figsize=(5.5 * len(cfg["controls"]), 4), squeeze=False)
+    for ax, c in zip(axes[0], cfg["controls"]):
+        dp = study["solutions"][("dynamic_programming", c)]
+        mp = study["solutions"][("maximum_principle", c)]
+        t_mp = np.r_[0, np.cumsum([2 if k % 2 == 0 else 1 for k in range(mp.n_min)])]
+        for i, name in enumerate(("dr", "dv_R", "dv_T")):
+            ax.plot(range(dp.x.shape[0]), dp.x[:, i], "-o", ms=3, color=f"C{i}", label=f"{name} DP")
+            ax.plot(t_mp, mp.x[:, i], ":s", ms=3, color=f"C{i}", mfc="none", label=f"{name} MP")
+        ax.axhline(0, color="k", lw=0.4)
+        ax.set_xlabel("original step (dt)")
+        ax.set_title(f"{c}: DP N_min = {dp.n_min_original}, MP N_min = {mp.n_min_original}", fontsize=9)
+        ax.legend(fontsize=6, ncol=2)
+    fig.tight_layout()
+    figs["trajectories"] = fig
+    return figs
+
+
+def reproduction_notes(study: dict) -> dict:
+    notes = {}
+    fit = study["dt_fit"]
+    if fit is not None:
+        notes[("d4_dt", "dt_hint")] = (
+            f"least-squares dt = {fit['dt']:.7f} (RMS {fit['rms']:.1e}); the even regrouped step spans 2 dt")
+    for c in CONTROLS:
+        notes[(f"d4_nmin_{c}", "maximum_principle")] = ("regrouped N_min n corresponds to ceil(3n/2) original steps; "
+                                                         "ball control sets |u~| <= a_max")
+        for m in ("maximum_principle", "dynamic_programming"):
+            notes[(f"d4_time_{c}", f"{m}_s")] = "ours: median wall time of N_min search + trajectory (Python, HiGHS)"
+    return notes
