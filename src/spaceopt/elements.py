@@ -64,8 +64,8 @@ def cartesian_to_mee(pos, vel, mu):
     iy = h[0] / (hn + h[2])
     s2 = 1.0 + ix**2 + iy**2
     # equinoctial frame unit vectors f (towards the equinoctial x axis) and g
-    f_hat = jnp.stack([1 - ix**2 + iy**2, 2 * ix * iy, -2 * iy]) / s2
-    g_hat = jnp.stack([2 * ix * iy, 1 + ix**2 - iy**2, 2 * ix]) / s2
+    f_hat = jnp.stack([1 + ix**2 - iy**2, 2 * ix * iy, -2 * iy]) / s2
+    g_hat = jnp.stack([2 * ix * iy, 1 - ix**2 + iy**2, 2 * ix]) / s2
     rn = jnp.linalg.norm(pos)
     e_vec = jnp.cross(vel, h) / mu - pos / rn
     ex = jnp.dot(e_vec, f_hat)

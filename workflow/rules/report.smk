@@ -10,6 +10,7 @@
 import os as _os
 import re as _re
 import shutil as _shutil
+import sys as _sys
 from glob import glob as _glob_report
 
 validate(config["report"], "../../config/schema/report.schema.yaml")
@@ -110,12 +111,13 @@ rule paper_errata:
         script="workflow/scripts/paper_errata.py",
     output:
         tex=f"{PAPER_DIR}/errata.tex",
+        md=report(f"{PAPER_DIR}/errata.md", caption="../report/errata.rst", category="Errata"),
     log:
         f"{RESULTS}/logs/report/paper_errata.log",
     benchmark:
         f"{RESULTS}/benchmarks/rules/paper_errata.tsv"
     shell:
-        "{PY} {input.script} --errata {input.errata} --out {output.tex} 2> {log} "
+        "{PY} {input.script} --errata {input.errata} --out {output.tex} --md {output.md} 2> {log} "
         "|| {{ tail -n1 {log} >&2; exit 1; }}"
 
 
@@ -198,4 +200,4 @@ else:
     # Without TeX (SPACEOPT_NO_TEX=1) the paper is left out of `rule all`; ask for it by name.
     _os.environ.get("SPACEOPT_NO_TEX") == "1" or print(
         "report.smk: latexmk not found; results/paper/paper.pdf is not part of `all` "
-        "(./dev setup installs TeX)", file=sys.stderr)
+        "(./dev setup installs TeX)", file=_sys.stderr)

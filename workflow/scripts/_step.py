@@ -8,5 +8,6 @@ def run_step(main, *args, **kwargs):
     try:
         return main(*args, **kwargs)
     except SpaceoptError as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        for stream in {sys.stderr, sys.__stderr__}:
+            print(f"error: {exc}", file=stream, flush=True)
         sys.exit(1)

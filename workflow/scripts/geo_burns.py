@@ -115,6 +115,7 @@ def main(sm):
         ("d1_flown", "fuel_kg"): f"mass flow {flow_f:g} kg/s; " + at_flows("flown", "fuel_kg"),
         ("d1_flown", "fuel_with_penalty_kg"): f"fuel + lambda3 * 3 starts; mass flow {flow_f:g} kg/s",
     }
+    ours = {k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in ours.items()}
     rows = [r for r in compare(sm.input.published, ours, notes) if r["case"].startswith("d1_")]
     # held-back published values (start-penalised scheme): our numbers, marked as such
     sp = recs["start_penalised"]
@@ -132,7 +133,8 @@ def main(sm):
     for q, v, unit in held:
         rows.append({k: "" for k in COLUMNS} | {
             "study": "discrete_geo_bellman", "case": "d1_start_penalised", "quantity": q, "unit": unit,
-            "published": "held back", "ours": v, "status": "info",
+            "published": "held back", "ours": float(v) if isinstance(v, np.floating) else v,
+            "status": "info",
             "ref": "05-discrete.md §D1, Problem 2 (values held back)",
             "note": f"lambda3 = {res['lambda3']:g} kg per start, mass flow {flow_o:g} kg/s; "
                     "fuel_with_penalty = fuel + lambda3 * starts"})

@@ -316,12 +316,13 @@ def _circ_miss(burn: Burn, p: GeoParams) -> float:
     return float(ev[0] * math.cos(ang) + ev[1] * math.sin(ang))
 
 
-def _series_with_trim(orb, kind, dt, n, p, miss):
-    """n-1 burns of dt then one burn trimmed (brentq) so that miss(last burn) = 0.
+def _series_with_trim(orb, kind, dt, n, p, miss, full=None):
+    """n-1 burns of dt then one burn trimmed (brentq) so that miss(last burn) = 0. ``full`` are
+    the n burns of dt if already computed (their first n-1 are reused).
 
     Returns the burns or None if the target is not reached with a full last burn, or is already
     passed before the last burn."""
-    burns = run_series(orb, kind, [dt] * (n - 1), p)
+    burns = list(full[:-1]) if full is not None else run_series(orb, kind, [dt] * (n - 1), p)
     o = burns[-1].orbit_after if burns else orb
     if burns and miss(burns[-1]) >= 0.0:
         return None
@@ -330,12 +331,12 @@ def _series_with_trim(orb, kind, dt, n, p, miss):
         b = centred_burn(o, _first_apsis(o, kind, d, p), d, kind, p)
         return miss(b), b
 
-    if last(dt)[0] < 0.0:
+    if full is None and last(dt)[0] < 0.0:
         return None
     lo = 1e-3
     if last(lo)[0] >= 0.0:
         return None
-    d_last = brentq(lambda d: last(d)[0], lo, dt, xtol=1e-6, rtol=1e-12)
+    d_last = brentq(lambda d: last(d)[0], lo, dt, xtol=1e-4, rtol=1e-12)
     return burns + [last(d_last)[1]]
 
 
@@ -383,14 +384,16 @@ def impulsive_estimate(orb: Orbit, kind: str, p: GeoParams) -> float:
 
 def minimal_duration(orb: Orbit, kind: str, n: int, p: GeoParams, guess: float | None = None):
     """Smallest duration (multiple of duration_step_s) with which n equal burns reach the target;
-    returns (dt_continuous, dt_rounded)."""
+    returns (dt_continuous, dt_rounded, the n burns of dt_rounded)."""
     miss = _miss_p if kind == "p" else _miss_a
+    cache = {}
 
     def g(dt):
         try:
             bs = _guarded_series(orb, kind, [dt] * n, p)
         except _Escape:
             return 1.0
+        cache[dt] = bs
         return miss(bs[-1], p)
 
     if guess is None:
@@ -403,13 +406,13 @@ def minimal_duration(orb: Orbit, kind: str, n: int, p: GeoParams, guess: float |
         while k > 1:
             gm1 = g((k - 1) * step)
             if gm1 < 0.0:
-                return _interp(k - 1, gm1, k, gk, step), k * step
+                return _interp(k - 1, gm1, k, gk, step), k * step, cache.get(k * step)
             k, gk = k - 1, gm1
         raise RuntimeError(f"{kind} series n={n}: target reached with the shortest burn")
     for _ in range(100000):
         gp1 = g((k + 1) * step)
         if gp1 >= 0.0:
-            return _interp(k, gk, k + 1, gp1, step), (k + 1) * step
+            return _interp(k, gk, k + 1, gp1, step), (k + 1) * step, cache.get((k + 1) * step)
         k, gk = k + 1, gp1
     raise RuntimeError(f"cannot bracket the {kind} burn duration for n={n}")
 
@@ -422,8 +425,8 @@ def _interp(k0, g0, k1, g1, step):
 def trimmed_series(orb: Orbit, kind: str, n: int, p: GeoParams, guess=None):
     """n burns of the minimal rounded duration, the last trimmed to hit the target exactly."""
     miss = (lambda b: _miss_p(b, p)) if kind == "p" else (lambda b: _miss_a(b, p))
-    dt_c, dt = minimal_duration(orb, kind, n, p, guess)
-    burns = _series_with_trim(orb, kind, dt, n, p, miss)
+    dt_c, dt, full = minimal_duration(orb, kind, n, p, guess)
+    burns = _series_with_trim(orb, kind, dt, n, p, miss, full)
     if burns is None:
         raise RuntimeError(f"trim failed for {kind} series n={n}, dt={dt}")
     return dt_c, dt, burns
@@ -478,7 +481,7 @@ class Scheme:
 
     def apse_rotations_deg(self):
         """Apse-line rotation of every burn: angle between the apse line of the osculating ellipse
-        after the burn and the polar angle of the burn centre (the apsis the burn was centred
+        after the burn and the direction of the burn centre (the apsis the burn was centred
         on; for the first burn, on the circular orbit, the centre point itself). Burns whose
         ellipse after the burn has e < apse_rotation_min_ecc get NaN (no apse line)."""
         p = self.params
@@ -488,8 +491,9 @@ class Scheme:
                 out.append(float("nan"))
                 continue
             phi_c = integrate_burn(b.x_start, b.t_start, 0.5 * b.duration, p).y[1, -1]
-            apsis = b.orbit_after.psi + (0.0 if b.kind == "p" else math.pi)
-            out.append(math.degrees((apsis - phi_c + math.pi) % TWO_PI - math.pi))
+            # the apse line is a line: its rotation is taken modulo 180 deg (an apogee burn that
+            # overshoots circularisation turns its apogee into the perigee)
+            out.append(math.degrees((b.orbit_after.psi - phi_c + 0.5 * math.pi) % math.pi - 0.5 * math.pi))
         return out
 
     @property

@@ -7,12 +7,15 @@
    Q(K_f) = p_T(K_f)/τ instead, which is exact because p_T is cyclic (see flow.field).
 3. Verdict: T < T_min means no transfer over this angular range; n* ≈ n T_min / T revolutions
    would be needed (§4.1, "hyperbolic law").
-4. LP → OT by the homotopy (3.3.1) with ε(τ) = 1 − τ + ε_f τ; or, from a converged OT solution,
+4. LP → OT by the homotopy (3.3.1) with ε(τ) = 1 − τ + ε₁ τ down to ε₁ (default 10⁻²), then
+   pure OT with ε log-uniform from ε₁ to ε_f = 10⁻⁵ (the linear schedule of (3.3.1) all the way
+   to ε_f spends most steps in its last 10⁻³ of τ); or, from a converged OT solution,
    continuation in thrust at ε = ε_f (used near T_min, where the dissertation notes that the
    engine never switches off).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -32,6 +35,7 @@ ORBIT_COSTATES = (hm.P, hm.EX, hm.EY, hm.IX, hm.IY, hm.LK)
 LP_SHOOTING = Shooting(Model("lp"), ORBIT_COSTATES)
 OT_SHOOTING = Shooting(Model("ot", "lp"), ORBIT_COSTATES + (hm.MASS,))
 OT_THRUST_SHOOTING = Shooting(Model("ot", "thrust"), ORBIT_COSTATES + (hm.MASS,))
+OT_EPS_SHOOTING = Shooting(Model("ot", "eps"), ORBIT_COSTATES + (hm.MASS,))
 TMIN_SHOOTING = Shooting(Model("tmin", "lp"), ORBIT_COSTATES + (hm.MASS,))
 
 
@@ -56,10 +60,15 @@ class Solution:
         return {n: float(v) for n, v in zip(names, self.z) if n.startswith("p_")}
 
 
+PATH_RTOL = 1e-9     # integration tolerance while following the path; the end point uses sh.rtol
+
+
 def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None):
     opt = options or ContinuationOptions()
     opt = ContinuationOptions(**{**opt.__dict__, "label": label})
-    cont = Continuation(lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm), opt)
+    path = dataclasses.replace(sh, rtol=max(sh.rtol, PATH_RTOL), atol=max(sh.atol, PATH_RTOL * 0.1))
+    cont = Continuation(lambda z, tau: shoot(path, jnp.asarray(z), tau, prm), opt,
+                        polish=lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm))
     t0 = time.perf_counter()
     z, _ = cont.run(z0)
     stats = cont.stats.as_dict()
@@ -85,9 +94,15 @@ def tmin_initial_guess(lp: Solution) -> float:
     return tr.m0 * tr.c / dt * (1.0 - math.exp(-lp.extra["dv_m_s"] / tr.c))
 
 
+def blend_reference(lp: Solution) -> float:
+    """W_ref = 2 V_LP/Δt_LP (nondimensional): the mean primer magnitude of the doubled LP costates."""
+    tr = lp.transfer
+    return 2.0 * (lp.extra["dv_m_s"] / tr.vu) / (lp.extra["tof_s"] / tr.tu)
+
+
 def solve_tmin(lp: Solution, options=None, label="tmin") -> Solution:
     tr = lp.transfer
-    prm = tr.params()
+    prm = {**tr.params(), "blend_ref": jnp.asarray(blend_reference(lp))}
     T0 = tmin_initial_guess(lp) / tr.force_unit
     z0 = np.concatenate([2.0 * lp.z[:6], [0.0, lp.K_f, T0]])
     z, stats = _run(TMIN_SHOOTING, z0, prm, label, options)
@@ -113,12 +128,15 @@ def existence_verdict(tmin: Solution, thrust_N: float) -> dict:
 def solve_ot(lp: Solution, thrust_N: float, options=None, label="ot") -> Solution:
     """LP → OT homotopy (3.3.1) at thrust T."""
     tr = lp.transfer
-    prm = tr.params(thrust=thrust_N)
+    prm = {**tr.params(thrust=thrust_N), "blend_ref": jnp.asarray(blend_reference(lp))}
     z0 = np.concatenate([2.0 * lp.z[:6], [0.0, lp.K_f]])
-    z, stats = _run(OT_SHOOTING, z0, prm, label, options)
-    sol = Solution("ot", OT_SHOOTING, z, prm, tr, stats, thrust_N=thrust_N)
-    sol.prm = tr.params(thrust=thrust_N)
-    return sol
+    z, stats = _run(OT_SHOOTING, z0, prm, label + " LP->OT", options)
+    if tr.eps_blend > tr.eps_final:
+        z, stats_eps = _run(OT_EPS_SHOOTING, z, prm, label + " eps", options)
+        stats = {"lp_to_ot": stats, "eps": stats_eps,
+                 **{k: stats[k] + stats_eps[k] for k in stats if k != "final_residual"},
+                 "final_residual": stats_eps["final_residual"]}
+    return Solution("ot", OT_EPS_SHOOTING, z, tr.params(thrust=thrust_N), tr, stats, thrust_N=thrust_N)
 
 
 def continue_ot_in_thrust(ot: Solution, thrust_N: float, options=None, label="ot-thrust") -> Solution:
@@ -128,13 +146,13 @@ def continue_ot_in_thrust(ot: Solution, thrust_N: float, options=None, label="ot
     prm["thrust_a"] = jnp.asarray(ot.thrust_N / tr.force_unit)
     prm["thrust_b"] = jnp.asarray(thrust_N / tr.force_unit)
     z, stats = _run(OT_THRUST_SHOOTING, ot.z, prm, label, options)
-    return Solution("ot", OT_SHOOTING, z, tr.params(thrust=thrust_N), tr, stats, thrust_N=thrust_N)
+    return Solution("ot", OT_EPS_SHOOTING, z, tr.params(thrust=thrust_N), tr, stats, thrust_N=thrust_N)
 
 
 # ---------------------------------------------------------------- dense trajectories
 
 def final_model(sol: Solution) -> Model:
-    return {"lp": Model("lp"), "tmin": Model("tmin", "lp"), "ot": Model("ot", "lp")}[sol.stage]
+    return {"lp": Model("lp"), "tmin": Model("tmin", "lp"), "ot": Model("ot", "eps")}[sol.stage]
 
 
 def dense(sol: Solution, samples_per_rev: int = 200):

@@ -33,7 +33,7 @@ class ContinuationOptions:
     h_init: float = 0.05
     h_min: float = 1e-7
     h_max: float = 0.25
-    tol_step: float = 1e-7
+    tol_step: float = 1e-6
     tol_final: float = 1e-10
     max_corrector: int = 4
     max_final: int = 12
@@ -71,15 +71,20 @@ def _solve(J, r):
 
 
 class Continuation:
-    """Follow f(z(τ), τ) = (1 − τ) b from τ₀ to τ₁ for ``evaluate(z, τ) -> (f, J, f_τ, nsteps, ok)``."""
+    """Follow f(z(τ), τ) = (1 − τ) b from τ₀ to τ₁ for ``evaluate(z, τ) -> (f, J, f_τ, nsteps, ok)``.
 
-    def __init__(self, evaluate, options: ContinuationOptions | None = None):
+    ``polish`` (same signature, default ``evaluate``) is used for the final Newton iterations at
+    τ₁: the path may be followed with looser integration tolerances than the end point needs.
+    """
+
+    def __init__(self, evaluate, options: ContinuationOptions | None = None, polish=None):
         self.evaluate = evaluate
+        self.polish = polish or evaluate
         self.opt = options or ContinuationOptions()
         self.stats = ContinuationStats()
 
-    def _eval(self, z, tau):
-        f, J, ftau, nsteps, ok = self.evaluate(z, tau)
+    def _eval(self, z, tau, final=False):
+        f, J, ftau, nsteps, ok = (self.polish if final else self.evaluate)(z, tau)
         self.stats.jacobians += 1
         self.stats.integration_steps += int(nsteps)
         return np.asarray(f), np.asarray(J), np.asarray(ftau), bool(ok)
@@ -140,13 +145,16 @@ class Continuation:
                 self._log(f"  rejected at tau={tau:.6f}, h -> {h:.3g}")
                 if h < opt.h_min * abs(span):
                     raise self._diagnose("step size underflow", z, tau, h, F)
-        # final polish at τ₁
+        # final polish at τ₁ (re-evaluated with the polishing tolerances)
+        if self.polish is not self.evaluate:
+            f, J, ftau, ok = self._eval(z, tau1, final=True)
+            F = f
         nF = _norm(F)
         for _ in range(opt.max_final):
             if nF <= opt.tol_final:
                 break
             z_new = z + _solve(J, -F)
-            f_new, J_new, ftau_new, ok = self._eval(z_new, tau1)
+            f_new, J_new, ftau_new, ok = self._eval(z_new, tau1, final=True)
             if not ok or not np.all(np.isfinite(f_new)) or _norm(f_new) > 2.0 * nF:
                 break
             z, F, J, ftau, nF = z_new, f_new, J_new, ftau_new, _norm(f_new)

@@ -10,6 +10,10 @@ reduce to once their typos are fixed (spec 01-methods §3.3, "clean interpretati
 with g_LP' the field of ½ k|A|², W = |A| (OT) or |A₁| (T_min). The printed (3.4.1) uses the
 blended primer B = (1−τ)A + τA₁ in its state rows; we use the same blend for every row of both
 homotopies — the end points τ = 0 and τ = 1 are identical, which is all the method requires.
+W is measured in units of W_ref (``prm['blend_ref']``, the mean LP primer magnitude): with the
+printed weights, a 100-revolution problem whose primer is ~10⁻³ only leaves the LP field in the
+last 0.1 % of τ, and the continuation crawls there; scaling W reparametrises τ without moving
+either end point (measured: see benchmarks/multirev.py).
 
 Smoothed throttle: δ(S(y), ε) is evaluated outside ``jax.grad`` and passed to H as a constant, so
 the costate equations carry no ∂δ/∂S term (δ frozen, spec 01-methods §7), while ``jax.jvp`` of
@@ -44,7 +48,8 @@ class Model:
     """Static description of a field: which problem and which homotopy parameter τ drives.
 
     kind: 'lp' (LP, τ unused — Newton homotopy), 'ot' or 'tmin'.
-    homotopy (for 'ot'): 'lp' — τ blends LP→OT and ε(τ) = 1 − τ + ε_f τ (3.3.1);
+    homotopy (for 'ot'): 'lp' — τ blends LP→OT and ε(τ) = 1 − τ + ε₁ τ (3.3.1);
+                         'eps' — pure OT with ε = ε₁^(1−τ) ε_f^τ (log-uniform smoothing);
                          'thrust' — pure OT with T = T_a + τ (T_b − T_a) at ε = ε_f.
     homotopy (for 'tmin'): 'lp' — τ blends LP→T_min (3.4.1).
     """
@@ -64,7 +69,9 @@ def ot_params(model: Model, tau, prm):
     """Thrust and ε at τ for an OT model."""
     if model.homotopy == "thrust":
         return prm["thrust_a"] + tau * (prm["thrust_b"] - prm["thrust_a"]), prm["eps_final"]
-    return prm["thrust"], hm.epsilon_schedule(tau, prm["eps_final"])
+    if model.homotopy == "eps":
+        return prm["thrust"], prm["eps_blend"] ** (1.0 - tau) * prm["eps_final"] ** tau
+    return prm["thrust"], hm.epsilon_schedule(tau, prm["eps_blend"])
 
 
 def ot_delta(model: Model, K, y, tau, prm):
@@ -83,7 +90,7 @@ def field(model: Model, K, y, tau, prm):
     if model.kind == "ot":
         delta, _, prm_t = ot_delta(model, K, y, tau, prm)
         g_tgt = hamiltonian_field(partial(hm.h_ot, prm=prm_t, delta=delta), K, y, n)
-        if model.homotopy == "thrust":
+        if model.homotopy in ("thrust", "eps"):
             return g_tgt
         W = hm.primer_magnitude(K, y[:n], y[n:])
     elif model.kind == "tmin":
@@ -92,6 +99,7 @@ def field(model: Model, K, y, tau, prm):
     else:
         raise ValueError(model.kind)
     g_lp = hamiltonian_field(partial(hm.h_lp, prm=_lp_prime(prm)), K, y, n)
+    W = W / prm["blend_ref"]
     den = 1.0 - tau + tau * W
     g = ((1.0 - tau) * g_lp + tau * W * g_tgt) / den
     if model.kind == "tmin":
@@ -110,7 +118,7 @@ def hamiltonian(model: Model, K, y, tau, prm):
     if model.kind == "ot":
         delta, _, prm_t = ot_delta(model, K, y, tau, prm)
         h_t = hm.h_ot(K, x, lam, prm_t, delta)
-        if model.homotopy == "thrust":
+        if model.homotopy in ("thrust", "eps"):
             return h_t
     else:
         h_t = hm.h_tmin(K, x, lam, prm)

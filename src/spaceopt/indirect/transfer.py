@@ -52,6 +52,7 @@ class Transfer:
     thrust: float = float("nan")
     mu: float = constants.MU_EARTH_THESIS
     eps_final: float = 1e-5
+    eps_blend: float = 1e-2
 
     def __post_init__(self):
         self.initial.check("initial")
@@ -63,6 +64,8 @@ class Transfer:
             raise ConfigError("thrust", self.thrust, "must be a positive force in newtons")
         if not (0 < self.eps_final < 1):
             raise ConfigError("eps_final", self.eps_final, "smoothing end value must be in (0, 1)")
+        if not (self.eps_final <= self.eps_blend <= 1):
+            raise ConfigError("eps_blend", self.eps_blend, "must lie in [eps_final, 1]")
 
     # units
     @property
@@ -102,7 +105,7 @@ class Transfer:
             "x0": self.initial.mee5(self.du), "xf": self.final.mee5(self.du),
             "L0": L0, "Lf": L0 + self.delta_L, "c": self.c / self.vu,
             "thrust": (0.0 if T is None or math.isnan(T) else T) / self.force_unit,
-            "thrust_a": 0.0, "thrust_b": 0.0, "eps_final": self.eps_final}.items()}
+            "thrust_a": 0.0, "thrust_b": 0.0, "eps_final": self.eps_final, "eps_blend": self.eps_blend, "blend_ref": 1.0}.items()}
 
     def as_dict(self):
         return asdict(self)

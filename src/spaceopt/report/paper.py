@@ -178,6 +178,18 @@ def errata_tex(entries: list[dict]) -> str:
     return "\n".join(out) + "\n"
 
 
+def errata_markdown(entries: list[dict]) -> str:
+    """The errata as a Markdown table (fields stay LaTeX snippets) for the HTML report."""
+    out = ["| id | kind | where | printed | correct / we use | evidence | specification |",
+           "|---|---|---|---|---|---|---|"]
+    cell = lambda x: str(x or "").replace("|", "\\|").replace("\n", " ")  # noqa: E731
+    for e in entries:
+        out.append("| " + " | ".join(cell(e.get(k)) for k in ("id", "kind")) + " | "
+                   + cell(f"{e['source']}, {e['location']}") + " | "
+                   + " | ".join(cell(e.get(k)) for k in ("printed", "correct", "evidence", "spec")) + " |")
+    return "\n".join(out) + "\n"
+
+
 # ----------------------------------------------------------------------------- performance
 
 _TIME_KEYS = ("median_s", "wall_s", "wall_time_s", "mean_s", "time_s", "min_s")

@@ -1,0 +1,104 @@
+"""The JAX-derived canonical equations against the printed ones (spec 01-methods §1.3, §2)."""
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from spaceopt.indirect import hamiltonians as hm
+from spaceopt.indirect.flow import Model, field, hamiltonian_field
+
+PRM = {"c": 4.848041, "thrust": 0.0669, "eps_final": 1e-5, "lp_scale": 1.0, "blend_ref": 1.0,
+       "thrust_a": 0.0, "thrust_b": 0.0}
+
+
+def random_point(seed, n=8):
+    rng = np.random.default_rng(seed)
+    x = np.array([rng.uniform(0.3, 1.2), rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5),
+                  rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3), rng.uniform(-3, 3),
+                  rng.uniform(0, 10), rng.uniform(0.7, 1.0)])
+    lam = rng.normal(scale=0.1, size=8)
+    lam[hm.TIME] = 0.0
+    if n == 9:
+        x = np.append(x, rng.uniform(0.01, 0.05))
+        lam = np.append(lam, rng.normal(scale=0.01))
+    return float(rng.uniform(0, 30)), jnp.asarray(x), jnp.asarray(lam)
+
+
+def printed_state_rates(K, x, a):
+    """(1.1.7) with total acceleration a = (a_t, a_r, a_n)."""
+    g = hm.geometry(K, x)
+    return g["k1"] * g["k2"] * hm.control_matrix(x, g) @ a, g
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_ot_field_matches_printed_equations(seed):
+    K, x, lam = random_point(seed)
+    S = hm.switching_ot(K, x, lam, PRM)
+    delta = float(hm.smooth_delta(S, 0.3))
+    y = jnp.concatenate([x, lam])
+    g = hamiltonian_field(lambda K_, x_, l_: hm.h_ot(K_, x_, l_, PRM, delta), K, y, 8)
+    geo = hm.geometry(K, x)
+    A = hm.primer(x, lam, geo)
+    a = delta * PRM["thrust"] / x[hm.MASS] * A / jnp.linalg.norm(A)
+    rates, _ = printed_state_rates(K, x, a)
+    np.testing.assert_allclose(g[:6], rates, rtol=1e-12, atol=1e-15)
+    assert np.isclose(g[hm.TIME], geo["k1"], rtol=1e-13)
+    assert np.isclose(g[hm.MASS], -delta * geo["k1"] * PRM["thrust"] / PRM["c"], rtol=1e-13)
+    # dp_m/dK = δ T k1 k2 |A| / m² (2.1.10)
+    expected_pm = delta * PRM["thrust"] * geo["k1"] * geo["k2"] * jnp.linalg.norm(A) / x[hm.MASS] ** 2
+    assert np.isclose(g[8 + hm.MASS], expected_pm, rtol=1e-12)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_lp_field_is_twice_k_B_A(seed):
+    K, x, lam = random_point(seed)
+    y = jnp.concatenate([x, lam])
+    g = field(Model("lp"), K, y, 0.0, PRM)
+    geo = hm.geometry(K, x)
+    A = hm.primer(x, lam, geo)
+    rates, _ = printed_state_rates(K, x, geo["k2"] * A)     # a_LP = k2 A (2.2.7)
+    np.testing.assert_allclose(g[:6], rates, rtol=1e-12, atol=1e-15)
+    assert g[hm.MASS] == 0.0
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_tmin_thrust_costate_equation_2_3_9(seed):
+    K, x, lam = random_point(seed, n=9)
+    y = jnp.concatenate([x, lam])
+    g = hamiltonian_field(lambda K_, x_, l_: hm.h_tmin(K_, x_, l_, PRM), K, y, 9)
+    geo = hm.geometry(K, x)
+    T, m = x[hm.THRUST], x[hm.MASS]
+    A1v = hm.primer(x, lam, geo, -0.5 * T**2)
+    A1 = jnp.linalg.norm(A1v)
+    printed = T + geo["k1"] * lam[hm.MASS] / PRM["c"] + geo["k1"] * geo["k2"] * (
+        (-A1 + geo["xi"] * T**2 * A1v[2] / A1) / m)
+    assert np.isclose(g[9 + hm.THRUST], printed, rtol=1e-11)
+    assert g[hm.THRUST] == 0.0
+
+
+def test_smoothed_delta_frozen_in_costates_but_seen_by_sensitivities():
+    K, x, lam = random_point(7)
+    y = jnp.concatenate([x, lam])
+    prm = {**PRM, "thrust": PRM["thrust"]}
+    model = Model("ot", "thrust")
+    prm = {**prm, "thrust_a": 0.0669, "thrust_b": 0.0669, "eps_final": 0.2}
+    g = field(model, K, y, 1.0, prm)
+    # costate rows equal −∂H/∂x with δ held constant
+    S = hm.switching_ot(K, x, lam, {**prm, "thrust": 0.0669})
+    delta = hm.smooth_delta(S, 0.2)
+    dHdx = jax.grad(lambda xx: hm.h_ot(K, xx, lam, {**prm, "thrust": 0.0669}, delta))(x)
+    np.testing.assert_allclose(g[8:], -dHdx, rtol=1e-12, atol=1e-16)
+    # the Jacobian of the field sees dδ/dy: it differs from the frozen-δ Jacobian
+    J_full = jax.jacfwd(lambda yy: field(model, K, yy, 1.0, prm))(y)
+    J_frozen = jax.jacfwd(lambda yy: hamiltonian_field(
+        lambda K_, x_, l_: hm.h_ot(K_, x_, l_, {**prm, "thrust": 0.0669}, delta), K, yy, 8))(y)
+    assert np.max(np.abs(J_full - J_frozen)) > 1e-6
+
+
+def test_homotopy_end_points():
+    K, x, lam = random_point(3)
+    y = jnp.concatenate([x, lam])
+    prm = {**PRM, "lp_scale": 0.5}
+    g0 = field(Model("ot", "lp"), K, y, 0.0, PRM)
+    g_lp_half = hamiltonian_field(lambda K_, x_, l_: hm.h_lp(K_, x_, l_, prm), K, y, 8)
+    np.testing.assert_allclose(g0, g_lp_half, rtol=1e-13, atol=1e-16)

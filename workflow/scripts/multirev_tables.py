@@ -1,0 +1,36 @@
+"""§4.1 tables: anchors.csv, Table 4.1.3 (CSV/Markdown/LaTeX), verification, reproduction rows."""
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _step import run_step  # noqa: E402
+
+from spaceopt import artifacts  # noqa: E402
+from spaceopt.report import compare  # noqa: E402
+from spaceopt.studies import multirev_report as mr  # noqa: E402
+
+
+def main(sm):
+    stages = {k: v for k, v in sm.input.items() if not k.startswith("_")}
+    anchor_rows = mr.anchors(stages)
+    mr.write_csv(sm.output.anchors, anchor_rows, ["case", "quantity", "value", "unit"])
+    t413 = mr.table_4_1_3(stages, sm.params.t413["thrust_N"])
+    mr.write_csv(sm.output.t413, t413, mr.T413_COLUMNS)
+    pub = compare.published_lookup(sm.input._pub)
+    Path(sm.output.t413_md).write_text(mr.table_4_1_3_markdown(t413, pub))
+    Path(sm.output.t413_tex).write_text(mr.table_4_1_3_latex(t413))
+    ver_rows = []
+    for p in sm.input._verify:
+        v = artifacts.read_json(p)
+        ver_rows.append({"artifact": v["artifact"], **v["verification"]})
+    cols = list(ver_rows[0]) if ver_rows else ["artifact"]
+    mr.write_csv(sm.output.verify, ver_rows, cols)
+    rows = mr.reproduction_rows(sm.input._pub, anchor_rows, t413)
+    compare.write_rows(sm.output.repro, rows)
+    Path(sm.output.section).write_text(mr.paper_section(rows, ver_rows))
+
+
+if __name__ == "__main__":
+    with open(snakemake.log[0], "w") as log:  # noqa: F821
+        sys.stderr = log
+        run_step(main, snakemake)  # noqa: F821

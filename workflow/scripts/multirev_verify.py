@@ -1,0 +1,23 @@
+"""Independent Cartesian re-propagation of one OT artifact (scipy DOP853)."""
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _step import run_step  # noqa: E402
+
+from spaceopt import artifacts  # noqa: E402
+from spaceopt.studies.verify import verify_ot  # noqa: E402
+
+
+def main(sm):
+    t0 = time.perf_counter()
+    res = verify_ot(sm.input.json)
+    artifacts.write_json(sm.output[0], {"verification": res, "artifact": Path(sm.input.json).name,
+                                        "provenance": artifacts.provenance({}, time.perf_counter() - t0)})
+
+
+if __name__ == "__main__":
+    with open(snakemake.log[0], "w") as log:  # noqa: F821
+        sys.stderr = log
+        run_step(main, snakemake)  # noqa: F821
