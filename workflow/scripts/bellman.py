@@ -45,8 +45,6 @@ def main(sm):
     sup = bm.sup_on_slice(sol, p, 0.0)
     _write_csv(sm.output.sup, ["t_s", "p_sup_V_wx0"], zip(sol["t"], sup))
 
-    save_figure(bm.plot_level_sets(sol, p, cfg["level_set_times_s"], cfg["level_set_levels"]),
-                figdir / "bellman_level_sets.png")
     save_figure(bm.plot_points(sol["t"], {f"{n} (wx, wy, wz) = {tuple(points[n])}": V[n] for n in names},
                                "V(t) at the published points (equal by the symmetry wy,wz -> -wy,-wz)"),
                 figdir / "bellman_points.png")
@@ -71,6 +69,10 @@ def main(sm):
                          "max_abs_w": r["max_abs_w"], "stays_in_Q": r["stays_in_Q"],
                          "w_final": r["w"][-1]}
     save_figure(bm.plot_closed_loop(runs, pc), figdir / "bellman_closed_loop.png")
+    tc = float(cl["horizon_s"])
+    save_figure(bm.plot_level_sets([(sol, p, cfg["level_set_times_s"]),
+                                    (solc, pc, [0.0, 0.5 * tc, tc - pc.dt])], cfg["level_set_levels"]),
+                figdir / "bellman_level_sets.png")
 
     i0 = bm.node_index(p, (0.0, 0.0, 0.0))[0]
     write_npz(sm.output.arrays, t_s=sol["t"], axis_rad_s=sol["axis"], V_wx0=sol["V"][:, i0],

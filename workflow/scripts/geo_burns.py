@@ -55,7 +55,7 @@ def main(sm):
     figdir = Path(sm.params.figdir)
     for name in ("classical", "start_penalised", "classical_published_counts"):
         print(f"D1: switching function along {name} ...", file=sys.stderr)
-        k = gb.switching_function(schemes[name], nsamp)
+        k = gb.switching_function(schemes[name], nsamp, float(cfg["numerics"]["switching_sample_dt_s"]))
         sw[name] = {key: v for key, v in k.items() if key not in ("t", "k", "burn")}
         arrays.update({f"{name}_t_s": k["t"], f"{name}_k": k["k"], f"{name}_burn": k["burn"]})
         s = schemes[name]

@@ -283,23 +283,34 @@ def closed_loop(sol: dict, p: BellmanParams, w0, grad_zero_tol: float = 1e-12, r
 # --------------------------------------------------------------------------------------------
 # Figures (returned, saved by the caller)
 # --------------------------------------------------------------------------------------------
-def plot_level_sets(sol, p: BellmanParams, times, levels):
+def plot_level_sets(rows, levels):
+    """Level sets of V(t, 0, wy, wz). ``rows``: list of (sol, params, times) - one figure row
+    per solution (e.g. the T = 1 s solution and the longer closed-loop horizon)."""
     import matplotlib.pyplot as plt
 
-    g = sol["axis"]
-    i0 = node_index(p, (0.0, 0.0, 0.0))[0]
-    fig, axes = plt.subplots(1, len(times), figsize=(4.2 * len(times), 4.0), squeeze=False)
-    for ax, t in zip(axes[0], times):
-        k = int(np.argmin(np.abs(sol["t"] - t)))
-        Z = sol["V"][k, i0]
-        cs = ax.contourf(g, g, Z.T, levels=np.linspace(0, 1, 21), cmap="viridis")
-        ax.contour(g, g, Z.T, levels=levels, colors="w", linewidths=0.7)
-        ax.add_patch(plt.Rectangle((-p.q, -p.q), 2 * p.q, 2 * p.q, fill=False, ec="r", lw=0.8))
-        ax.set_title(f"V(t={sol['t'][k]:.2f} s, wx=0, wy, wz)", fontsize=9)
-        ax.set_xlabel("wy, rad/s")
-        ax.set_ylabel("wz, rad/s")
-        ax.set_aspect("equal")
-    fig.colorbar(cs, ax=axes[0].tolist(), shrink=0.8, label="V")
+    ncol = max(len(r[2]) for r in rows)
+    fig, axes = plt.subplots(len(rows), ncol, figsize=(3.6 * ncol + 1.0, 3.5 * len(rows)),
+                             squeeze=False, constrained_layout=True)
+    for ax_row, (sol, p, times) in zip(axes, rows):
+        g = sol["axis"]
+        i0 = node_index(p, (0.0, 0.0, 0.0))[0]
+        for ax, t in zip(ax_row, times):
+            k = int(np.argmin(np.abs(sol["t"] - t)))
+            Z = sol["V"][k, i0]
+            cs = ax.contourf(g, g, Z.T, levels=np.linspace(0, 1, 21), cmap="viridis")
+            ax.contour(g, g, Z.T, levels=levels, colors="w", linewidths=0.7)
+            ax.add_patch(plt.Rectangle((-p.q, -p.q), 2 * p.q, 2 * p.q, fill=False, ec="r", lw=0.8))
+            ax.set_title(f"T = {p.horizon:g} s: V(t={sol['t'][k]:.1f} s, 0, wy, wz)", fontsize=8)
+            ax.set_xlabel("wy, rad/s", fontsize=8)
+            ax.set_ylabel("wz, rad/s", fontsize=8)
+            ax.tick_params(labelsize=7)
+            ticks = np.round(np.linspace(-p.q, p.q, 5), 6)
+            ax.set_xticks(ticks)
+            ax.set_yticks(ticks)
+            ax.set_aspect("equal")
+        for ax in ax_row[len(times):]:
+            ax.axis("off")
+    fig.colorbar(cs, ax=axes.ravel().tolist(), shrink=0.8, label=f"V (white: levels {levels})")
     return fig
 
 

@@ -627,7 +627,7 @@ def _jax_adjoint(p: GeoParams):
     return full, ecc_jac
 
 
-def switching_function(s: Scheme, samples_per_arc=60):
+def switching_function(s: Scheme, samples_per_arc=60, sample_dt_s=500.0):
     """k(t) along the scheme (see module docstring). Returns a dict with t, k, the burn mask,
     the fitted (nu, xi), and check statistics."""
     p = s.params
@@ -660,7 +660,7 @@ def switching_function(s: Scheme, samples_per_arc=60):
         if x_next_start is not None:
             state_gap = max(state_gap, abs(xb[0] - x_next_start[0]) / xb[0])
         y0 = np.concatenate([xb, P.ravel()])
-        te = np.linspace(tb, ta, samples_per_arc)
+        te = np.linspace(tb, ta, max(samples_per_arc, int(math.ceil((tb - ta) / sample_dt_s)) + 1))
         sol = solve_ivp(lambda t, y: np.asarray(full(y, u)), (tb, ta), y0, method="RK45",
                         t_eval=te, rtol=p.rtol, atol=np.concatenate([_atol(p), np.full(15, 1e-12)]))
         if sol.status != 0:
@@ -813,7 +813,7 @@ def plot_switching(sw: dict, title: str):
     fig, axes = plt.subplots(2, 1, figsize=(9, 6))
     t, k, on = sw["t"], sw["k"], sw["burn"]
     for ax, mask in zip(axes, (np.ones_like(on), t <= sw.get("zoom_s", 1.0e5))):
-        ax.plot(t[mask & ~on] / 1e3, k[mask & ~on], ".", ms=1.5, color="tab:blue", label="coast")
+        ax.plot(t[mask] / 1e3, k[mask], "-", lw=0.8, color="tab:blue", label="k(t)")
         ax.plot(t[mask & on] / 1e3, k[mask & on], ".", ms=3, color="tab:red", label="burn (u = U_max)")
         ax.axhline(1.0, color="k", lw=0.7)
         ax.set_ylabel("k(t)")
