@@ -36,11 +36,12 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.integrate import solve_ivp
+from scipy.integrate import DOP853, RK45, solve_ivp
 from scipy.optimize import brentq, linprog
 
 from ..errors import ConfigError, ConvergenceError
 
+_STEPPERS = {"DOP853": DOP853, "RK45": RK45}
 B_MATRIX = np.array([[0.0, 0.0], [0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
 
 
@@ -119,6 +120,16 @@ class Integrator:
             val = getattr(self, key)
             if not (isinstance(val, (int, float)) and 0 < val < 1):
                 raise ConfigError(f"libration_lp.integrator.{key}", val, "must lie in (0, 1)")
+
+    def step_to(self, s0, t0, t1, mu):
+        """State at t1 by the same Dormand-Prince stepper without solve_ivp's bookkeeping (short arcs)."""
+        solver = _STEPPERS[self.method](lambda t, s: rhs(t, s, mu), t0, np.asarray(s0, dtype=np.float64), t1,
+                                        rtol=self.rtol, atol=self.atol)
+        while solver.status == "running":
+            solver.step()
+        if solver.status == "failed":
+            raise ConvergenceError("libration_lp.integrator: step failed", {"t0": t0, "t1": t1})
+        return np.array(solver.y)
 
     def propagate(self, s0, t0, t1, mu, t_eval=None, events=None, dense_output=False):
         sol = solve_ivp(rhs, (t0, t1), np.asarray(s0, dtype=np.float64), method=self.method,
@@ -215,7 +226,10 @@ def apply_impulses(s0, U, delta, mu, integ: Integrator, tol=0.0, samples_per_tic
     for a, b in zip(bounds[:-1], bounds[1:]):
         if a in kicks:
             s[2:] += delta * U[a]
-        if b > a:
+        if b - a == 1 and samples_per_tick == 1:       # one tick (dense kicks, l2): bare stepper
+            s = integ.step_to(s, a * delta, b * delta, mu)
+            ts.append(b * delta), ss.append(s.copy())
+        elif b > a:
             t_eval = np.linspace(a * delta, b * delta, (b - a) * samples_per_tick + 1)
             sol = integ.propagate(s, a * delta, b * delta, mu, t_eval=t_eval)
             s = sol.y[:, -1].copy()
@@ -437,8 +451,9 @@ def figures(study: dict, cfg: dict, max_points: int = 4000) -> dict:
         Z = np.maximum(potential_E0(mu, X, Y), em["floor"])
     fig, ax = plt.subplots(figsize=(6, 5.5))
     cs = ax.contour(X, Y, Z, levels=em["levels"], linewidths=0.6)
+    cs.set_rasterized(True)
     ax.contour(X, Y, Z, levels=sorted(potential_E0(mu, *pts[n]) for n in ("L1", "L2", "L3")),
-               colors="k", linewidths=0.8)
+               colors="k", linewidths=0.8, linestyles="solid")
     for name, p in pts.items():
         ax.plot(*p, "r+")
         ax.annotate(name, p, fontsize=7, xytext=(3, 3), textcoords="offset points")
@@ -448,8 +463,9 @@ def figures(study: dict, cfg: dict, max_points: int = 4000) -> dict:
     figs["E0_contour"] = fig
     fig = plt.figure(figsize=(6.5, 5))
     ax = fig.add_subplot(projection="3d")
-    step = max(1, em["n"] // 120)
-    ax.plot_surface(X[::step, ::step], Y[::step, ::step], Z[::step, ::step], cmap="viridis", linewidth=0)
+    step = max(1, em["n"] // 80)
+    ax.plot_surface(X[::step, ::step], Y[::step, ::step], Z[::step, ::step], cmap="viridis", linewidth=0,
+                    rasterized=True)
     ax.set_xlabel("x")
     ax.set_ylabel("y")
     ax.set_zlabel("E0")
