@@ -210,7 +210,8 @@ def solve(p: BellmanParams, store_every: int = 1) -> dict:
         if n % store_every == 0:
             stored[n] = V.copy()
     times = sorted(stored)
-    return {"t": np.array(times, dtype=float) * p.dt, "V": np.stack([stored[k] for k in times]),
+    return {"t": np.round(np.array(times, dtype=float) * p.dt, 12),
+            "V": np.stack([stored[k] for k in times]),
             "axis": g, "in_q": in_q, "boundary": boundary, "u_sign_t0": usign,
             "cfl": cfl_number(p)}
 
@@ -315,17 +316,23 @@ def plot_level_sets(rows, levels):
 
 
 def plot_points(t, series: dict, title):
+    """V(t) at given points (left) and 1 - V(t) on a log scale (right), so that departures from
+    1 smaller than the line width stay visible."""
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6, 4))
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(10, 4))
     for (label, v), ls in zip(series.items(), ("-", "--", ":", "-.")):
         ax.plot(t, v, ls, marker="o", ms=3, label=label)
-    ax.set_xlabel("t, s")
+        ax2.semilogy(t, np.maximum(1.0 - np.asarray(v), 1e-17), ls, marker="o", ms=3, label=label)
     ax.set_ylabel("V(t, w)")
     ax.set_ylim(-0.02, 1.05)
-    ax.set_title(title, fontsize=9)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax2.set_ylabel("1 - V(t, w)  (floored at 1e-17)")
+    for a in (ax, ax2):
+        a.set_xlabel("t, s")
+        a.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
     return fig
 
 

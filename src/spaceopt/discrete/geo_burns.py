@@ -751,7 +751,9 @@ def run_study(cfg: dict, published_counts: tuple[int, int] | None = None, progre
             raise ConfigError("geo_burns.model.mass_flow_sensitivity_kg_s", fl, "must be > 0")
         pf = params_from_config(cfg, mass_flow_kg_s=fl)
         for name, s in schemes.items():
-            if name == "flown":
+            if s.params == pf:                       # already computed at this flow
+                sens.append(scheme_record(s, lam3))
+            elif name == "flown":
                 s2 = fixed_scheme(s.durations("p"), s.durations("a"), pf, name)
             else:
                 s2 = optimised_scheme(s.n_p, s.n_a, pf, name)
