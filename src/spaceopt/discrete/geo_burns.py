@@ -460,7 +460,8 @@ class Scheme:
         return self.params.m0 - self.burns[-1].x_end[4]
 
     def final_state(self):
-        """State at t1 (Kepler coast on the final orbit); None if the transfer ends after t1."""
+        """State at t1 (Kepler coast on the final orbit; the transfer must end before t1 for this
+        to be the vehicle's state, see ``feasible``)."""
         return state_at_time(self.burns[-1].orbit_after, self.params.t1, self.params.gm)
 
     @property
@@ -745,7 +746,11 @@ def run_study(cfg: dict, published_counts: tuple[int, int] | None = None, progre
             if name in ("classical", "start_penalised")}
     # mass-flow sensitivity: same burn counts, durations re-chosen (flown: same durations)
     sens = []
-    flows = [float(f) for f in cfg.get("model", {}).get("mass_flow_sensitivity_kg_s", [])]
+    raw = cfg.get("model", {}).get("mass_flow_sensitivity_kg_s", [])
+    try:
+        flows = [float(f) for f in raw]
+    except (TypeError, ValueError):
+        raise ConfigError("geo_burns.model.mass_flow_sensitivity_kg_s", raw, "must be a list of numbers") from None
     for fl in flows:
         if not (math.isfinite(fl) and fl > 0):
             raise ConfigError("geo_burns.model.mass_flow_sensitivity_kg_s", fl, "must be > 0")
