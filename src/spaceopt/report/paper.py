@@ -40,6 +40,11 @@ def latex_escape(text) -> str:
     return "".join(_UNICODE.get(ch, ch) for ch in s)
 
 
+def breakable(tex: str) -> str:
+    """Allow line breaks after the underscores, slashes and commas of identifiers, paths, lists."""
+    return tex.replace(r"\_", r"\_\allowbreak{}").replace("/", r"/\allowbreak{}").replace(",", r",\allowbreak{}")
+
+
 # ----------------------------------------------------------------------------- study sections
 
 def study_of(path, results_dir) -> str:
@@ -64,20 +69,22 @@ def _figure_tex(path) -> str:
     name = Path(path).stem.replace("_", " ")
     return "\n".join([r"\begin{figure}[htbp]\centering",
                       f"\\includegraphics[width=0.9\\linewidth,height=0.4\\textheight,keepaspectratio]{{{path}}}",
-                      f"\\caption{{{latex_escape(name)} (\\texttt{{{latex_escape(path)}}}).}}",
+                      f"\\caption{{{latex_escape(name)} (\\texttt{{{breakable(latex_escape(path))}}}).}}",
                       r"\end{figure}"])
 
 
 def auto_section_tex(study, repro=(), tables=(), figures=()) -> str:
     """A section assembled from a study's outputs, for studies without their own fragment."""
-    from .scoreboard import gather, rows_longtable
+    from .scoreboard import gather, summarize
 
     out = [f"\\section{{Study \\texttt{{{latex_escape(study)}}}}}\\label{{sec:{study}}}",
            r"\noindent\emph{This section was assembled automatically from the study's outputs; "
            r"the study has not provided its own \texttt{paper\_section.tex} yet.}", ""]
     if repro:
-        out.append(rows_longtable(gather(repro), f"Reproduction table of {latex_escape(study)}.",
-                                  f"tab:{study}-reproduction", show_study=False))
+        for s in summarize(gather(repro))[:-1]:
+            out.append(f"Reproduction (\\texttt{{{latex_escape(s['study'])}}}): {s['total']} published values, "
+                       f"{s['pass']} pass, {s['fail']} fail, {s['missing']} missing, {s['info']} for "
+                       r"information only; every value is listed in Table~\ref{tab:scoreboard}." + "\n")
     for t in tables:
         out += [f"% table {t}", r"\begin{center}\small", f"\\input{{{t}}}", r"\end{center}"]
     for f in figures:

@@ -22,7 +22,7 @@ from pathlib import Path
 
 from ..errors import ArtifactError
 from .compare import COLUMNS
-from .paper import latex_escape
+from .paper import breakable, latex_escape
 
 STATUSES = ("pass", "fail", "missing", "info")
 SUMMARY_COLUMNS = ["study", "total", *STATUSES, "other"]
@@ -163,13 +163,23 @@ def to_latex(rows: list[dict], summary: list[dict]) -> str:
     return "\n".join(out)
 
 
+# Column layout of the longtable: fixed widths (fractions of \linewidth) so that long notes or
+# qualitative values wrap inside their cell instead of widening the table.
+_LT_COLS = [("case", 0.14, "l"), ("quantity", 0.11, "l"), ("unit", 0.06, "l"), ("published", 0.105, "r"),
+            ("ours", 0.105, "r"), ("rel_diff", 0.07, "r"), ("tolerance", 0.07, "l"), ("status", 0.045, "l")]
+_LT_NOTE = 0.205
+
+
 def rows_longtable(rows: list[dict], caption: str, label: str, show_study: bool = True) -> str:
-    """Reproduction rows as a ``longtable`` (caption is LaTeX; needs booktabs and longtable)."""
+    """Reproduction rows as a ``longtable`` (caption is LaTeX; needs booktabs, longtable, array)."""
     e = latex_escape
-    cols = [k for k, _ in DISPLAY if k != "ref"]
-    head = " & ".join(e(h) for k, h in DISPLAY if k != "ref") + r" & ref / note \\"
-    out = [r"{\scriptsize\setlength{\tabcolsep}{3pt}",
-           r"\begin{longtable}{@{}lllrrrll>{\raggedright\arraybackslash}p{0.22\linewidth}@{}}",
+    align = {"l": r"\raggedright", "r": r"\raggedleft"}
+    spec = "@{}" + "".join(f">{{{align[a]}\\arraybackslash}}p{{{w}\\linewidth}}" for _, w, a in _LT_COLS) \
+        + f">{{\\raggedright\\arraybackslash}}p{{{_LT_NOTE}\\linewidth}}@{{}}"
+    titles = dict(DISPLAY)
+    head = " & ".join(e(titles[k]) for k, _, _ in _LT_COLS) + r" & ref / note \\"
+    out = [r"{\scriptsize\setlength{\tabcolsep}{2pt}",
+           f"\\begin{{longtable}}{{{spec}}}",
            f"\\caption{{{caption}}}\\label{{{label}}}\\\\",
            r"\toprule", head, r"\midrule", r"\endfirsthead",
            r"\toprule", head, r"\midrule", r"\endhead",
@@ -180,8 +190,8 @@ def rows_longtable(rows: list[dict], caption: str, label: str, show_study: bool 
             current = r["study"]
             out.append(r"\multicolumn{9}{@{}l}{\textbf{" + e(current) + r"}} \\[1pt]")
         d = _display_row(r)
-        cells = [e(d[k]) if k != "status" else _STATUS_TEX.get(d[k], e(d[k])) for k in cols]
-        note = e(r["ref"]) + (("; " + e(r["note"])) if r["note"] else "")
+        cells = [_STATUS_TEX.get(d[k], e(d[k])) if k == "status" else breakable(e(d[k])) for k, _, _ in _LT_COLS]
+        note = breakable(e(r["ref"])) + (("; " + e(r["note"])) if r["note"] else "")
         out.append(" & ".join(cells) + " & " + note + r" \\")
     out += [r"\end{longtable}}", ""]
     return "\n".join(out)
