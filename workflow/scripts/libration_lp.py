@@ -97,6 +97,10 @@ def reproduction(smk):
             case, q = key.split("|", 1)
             notes[(case, q)] = v
     rows = compare(smk.input.published, ours, notes)
+    for r in rows:   # D4 tables print 5 decimals of a 1e-2 mantissa: rounding error <= 5e-8
+        if r["case"].startswith("d4_mp_") and isinstance(r["abs_diff"], float) and abs(r["abs_diff"]) > 1e-6:
+            r["note"] = "; ".join(s for s in (r["note"], "difference far above the table's rounding (5e-8) while "
+                                              "the other entries agree to it: likely a misprint in the source") if s)
     write_rows(smk.output[0], rows)
     n = {s: sum(r["status"] == s for r in rows) for s in ("pass", "fail", "info", "missing")}
     print(json.dumps(n))
