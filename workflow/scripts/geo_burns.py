@@ -111,7 +111,8 @@ def main(sm):
             f"mass flow {flow_o:g} kg/s (the paper's implied flow); " + at_flows("classical_published_counts", "fuel_kg"),
         ("d1_classical_published_counts", "max_apse_rotation_deg"):
             "ours: angle between the new apse line and the burn centre, largest over burns (the last "
-            "perigee burn); the paper's definition of the rotation is not given",
+            "perigee burn); the paper's definition of the rotation is not given, and 0.273 has the "
+            "digits of the 273 s perigee burn (possibly a transcription slip)",
         ("d1_flown", "fuel_kg"): f"mass flow {flow_f:g} kg/s; " + at_flows("flown", "fuel_kg"),
         ("d1_flown", "fuel_with_penalty_kg"): f"fuel + lambda3 * 3 starts; mass flow {flow_f:g} kg/s",
     }
