@@ -26,6 +26,14 @@ def _csv(path, rows, columns):
             w.writerow({k: (repr(v) if isinstance(v, float) else v) for k, v in r.items()})
 
 
+def _md(rows, columns):
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    for r in rows:
+        lines.append("| " + " | ".join(f"{r[c]:.6g}" if isinstance(r.get(c), float) else str(r.get(c, ""))
+                                       for c in columns) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def study(smk):
     cfg, out = dict(smk.params.cfg), smk.output
     t0 = time.perf_counter()
@@ -54,6 +62,17 @@ def study(smk):
                              "l1_corrections": len(f["l1"]), "l2_corrections": len(f["l2"])})
     _csv(out.l1_vs_l2, cmp_rows, ["point", "l1_first", "l2_first", "excess_first", "l1_mean", "l2_mean",
                                   "excess_mean", "l1_corrections", "l2_corrections"])
+    md = ["# D2: l1 station keeping at the Earth-Moon collinear points\n\n## Table 1\n\n",
+          _md([{"point": r["point"], "x": r["x"], "y": r["y"],
+                "eigenvalues": ", ".join([f"±{v:.5f}" for v in r["real"]] + [f"±{v:.5f}j" for v in r["imag"]])}
+               for r in res["table1"]], ["point", "x", "y", "eigenvalues"]),
+          "\n## Corrections (Y0 at the start, YN after the nonlinear flight; coast in ticks)\n\n",
+          _md([{**r, "Y0": "(" + ", ".join(f"{v:.5f}" for v in r["Y0"]) + ")",
+                "YN": "(" + ", ".join(f"{v:.2e}" for v in r["YN"]) + ")"} for r in rows],
+              ["point", "criterion", "correction", "Y0", "YN", "impulses", "fuel", "coast_ticks"]),
+          "\n## l1 versus l2 fuel\n\n",
+          _md(cmp_rows, ["point", "l1_first", "l2_first", "excess_first", "l1_mean", "l2_mean", "excess_mean"])]
+    Path(out.markdown).write_text("".join(md))
     for name, fig in ll.figures(res, cfg).items():
         save_figure(fig, Path(smk.params.figdir) / f"libration_{name}.png")
     arrays = {}

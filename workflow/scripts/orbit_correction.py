@@ -22,6 +22,14 @@ def _csv(path, rows, columns):
             w.writerow({k: (repr(v) if isinstance(v, float) else v) for k, v in r.items()})
 
 
+def _md(rows, columns, fmt="{:.5e}"):
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    for r in rows:
+        lines.append("| " + " | ".join(fmt.format(r[c]) if isinstance(r.get(c), float) else str(r.get(c, ""))
+                                       for c in columns) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def study(smk):
     cfg, out = dict(smk.params.cfg), smk.output
     t0 = time.perf_counter()
@@ -42,6 +50,19 @@ def study(smk):
     _csv(out.timing, rows, ["control", "method", "ours_median_s", "ours_min_s", "ours_max_s", "ours_median_cpu_s",
                             "repeats",
                             "maple_2019_s", "speedup"])
+    md = [f"# D4: time-optimal discrete orbit correction (dt = {res['dt']:g})\n"]
+    trows = zc.table_rows(res)
+    for (m, c), sol in sols.items():
+        md.append(f"\n## {m.replace('_', ' ')}, {c} control ({sol.n_min} "
+                  f"{'regrouped' if m == 'maximum_principle' else 'original'} steps)\n\n")
+        md.append(_md([r for r in trows if r["method"] == m and r["control"] == c],
+                      ["k", "x1", "x2", "x3", "u1", "u2", "u3"]))
+    md.append("\n## N_min (original steps)\n\n")
+    md.append(_md([{"control": c, "method": m, "N_min": s.n_min_original} for (m, c), s in sols.items()],
+                  ["control", "method", "N_min"]))
+    md.append("\n## Computing time (s): ours (median of repeats) and Maple 2019 (published)\n\n")
+    md.append(_md(rows, ["control", "method", "ours_median_s", "ours_median_cpu_s", "maple_2019_s"], "{:.4g}"))
+    Path(out.markdown).write_text("".join(md))
     for name, fig in zc.figures(res, cfg).items():
         save_figure(fig, Path(smk.params.figdir) / f"orbit_correction_{name}.png")
     arrays = {}
