@@ -248,3 +248,15 @@ def test_failing_step_exits_nonzero_with_one_line_error(tmp_path):
     assert "results/logs/faults/failing.log" in err
     assert "Exiting because a job execution failed" in err
     assert not (root / "results" / "faults" / "failing.txt").exists()
+
+
+def test_scoreboard_refuses_a_malformed_reproduction_table(tmp_path):
+    from spaceopt.report.scoreboard import build
+
+    bad = tmp_path / "study" / "reproduction.csv"
+    bad.parent.mkdir()
+    bad.write_text("study,case,published,ours\nx,a,1,1\n")          # columns missing
+    with pytest.raises(ArtifactError, match=r"reproduction\.csv.*lacks columns"):
+        build([bad], tmp_path / "s.csv", tmp_path / "s.md", tmp_path / "s.tex")
+    with pytest.raises(ArtifactError, match="missing"):
+        build([tmp_path / "nope" / "reproduction.csv"], tmp_path / "s.csv", tmp_path / "s.md", tmp_path / "s.tex")
