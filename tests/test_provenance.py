@@ -1,6 +1,8 @@
 """Provenance and determinism of artifacts and figures (design.md, "Artifacts"; conventions.md)."""
 import json
+import shutil
 import subprocess
+import sys
 from importlib import metadata
 from pathlib import Path
 
@@ -116,3 +118,34 @@ def test_figures_byte_stable_without_source_date_epoch(tmp_path, monkeypatch):
         ax.plot([0, 1], [1, 0])
         out.append([p.read_bytes() for p in save_figure(fig, tmp_path / d / "f")])
     assert out[0] == out[1]
+
+
+@pytest.mark.skipif(shutil.which("latexmk") is None, reason="TeX is not installed (./dev setup installs it)")
+def test_paper_pdf_is_byte_stable(tmp_path):
+    """Two builds of the paper from the same generated fragments give identical PDF bytes."""
+    from spaceopt.report import paper as P
+    from spaceopt.report.figures import plt, save_figure
+    from spaceopt.report.scoreboard import build
+
+    res = tmp_path / "results"
+    fig, ax = plt.subplots(figsize=(3, 2))
+    ax.plot([0, 1, 2], [1, 0, 1])
+    (fig_pdf,) = save_figure(fig, res / "toy" / "figures" / "shape", formats=(".pdf",))
+    (res / "paper").mkdir(parents=True)
+    (res / "paper" / "sections.tex").write_text(P.sections_tex(res, figures=[fig_pdf]))
+    (res / "paper" / "errata.tex").write_text(P.errata_tex(P.load_errata(ROOT / "config" / "errata.yaml")))
+    (res / "paper" / "performance.tex").write_text(P.performance_tex([]))
+    build([], res / "report" / "scoreboard.csv", res / "report" / "scoreboard.md", res / "report" / "scoreboard.tex")
+    pdfs = []
+    for name in ("one", "two"):
+        out = tmp_path / f"{name}.pdf"
+        proc = subprocess.run([sys.executable, str(ROOT / "workflow" / "scripts" / "paper_build.py"),
+                               "--tex", "paper/paper.tex", "--results", str(res),
+                               "--build", str(tmp_path / f"build_{name}"), "--out", str(out),
+                               "--epoch", "1767225600"], cwd=ROOT, capture_output=True, text=True, timeout=300)
+        assert proc.returncode == 0, proc.stderr[-3000:]
+        pdfs.append(out.read_bytes())
+    assert pdfs[0][:5] == b"%PDF-" and pdfs[0] == pdfs[1]
+    if shutil.which("pdfinfo"):
+        info = subprocess.run(["pdfinfo", str(tmp_path / "one.pdf")], capture_output=True, text=True).stdout
+        assert "CreationDate" not in info and "ModDate" not in info      # no wall-clock dates
