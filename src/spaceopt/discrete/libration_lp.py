@@ -140,6 +140,17 @@ class Integrator:
         return sol
 
 
+def classify_fate(r_earth, r_moon, cfg) -> str:
+    """'Moon' / 'Earth' when the last half of a flight stays within the given radius of that body
+    (the Moon is tested first: its region lies inside the Earth's), else 'escape'."""
+    half = len(r_earth) // 2
+    if np.max(r_moon[half:]) < cfg["moon_radius"]:
+        return "Moon"
+    if np.max(r_earth[half:]) < cfg["earth_radius"]:
+        return "Earth"
+    return "escape"
+
+
 def uncontrolled(mu, s0, t_end, integ: Integrator, n_samples: int, stop_radius: float):
     """Uncontrolled trajectory, stopped at a close approach (r1 or r2 < stop_radius)."""
     def hit_earth(t, s, mu):
@@ -341,7 +352,8 @@ def run_study(cfg: dict) -> dict:
                                   "final_r_earth": float(r1[-1]), "final_r_moon": float(r2[-1]),
                                   "mean_r_earth_last_half": float(r1[len(r1) // 2:].mean()),
                                   "mean_r_moon_last_half": float(r2[len(r2) // 2:].mean()),
-                                  "stopped_at": float(sol.t[-1])})
+                                  "stopped_at": float(sol.t[-1]),
+                                  "fate": classify_fate(r1, r2, unc_cfg["fate"])})
     cc = _cfg(cfg, "correction", "correction")
     N, T = cc["N"], cc["T"]
     if not (isinstance(N, int) and N >= 2):
@@ -413,6 +425,8 @@ def reproduced_numbers(study: dict, km: float, tol_nonzero: float) -> dict:
         ours[("d2_L1_first", "distance_after_km")] = c0["distance_after"] * km
         ours[("d2_L1_first", "start_x_km")] = (xL1 + c0["Y0"][0]) * km
         ours[("d2_L1_first", "start_y_km")] = c0["Y0"][1] * km
+    for u in study["uncontrolled"]:
+        ours[("d2_uncontrolled", f"{u['name']}_fate")] = u["fate"]
     ours[("d2_l1_vs_l2", "l2_fuel_excess_first_L1")] = study["first_l2"].fuel / first.fuel - 1
     tot = {}
     for (name, crit), r in study["runs"].items():
