@@ -256,18 +256,19 @@ def chebyshev_series(coef, start_s, length_s, t):
 
     coef: (n_granules, 3, n_coef); granule k covers [start_s + k length_s, start_s + (k+1) length_s].
     Granule index by floor + clip (uniform granules; equivalent to searchsorted on the starts);
-    the index is piecewise constant, so d/dt flows only through x. Clenshaw summation.
+    the index is piecewise constant, so d/dt flows only through x. The scalar recurrence
+    T_{j+1} = 2x T_j - T_{j-1} and one contraction c_k . T(x) (as jplephem sums it) keep the
+    program small, which matters for the compile time of nested derivatives in the solver.
     """
     n = coef.shape[0]
     k = jnp.clip(jnp.floor((t - start_s) / length_s), 0, n - 1).astype(jnp.int32)
     seg_start = start_s + k.astype(t.dtype) * length_s          # exact: integer * whole seconds
     x = 2.0 * (t - seg_start) / length_s - 1.0
-    c = coef[k]                                                  # (3, n_coef)
-    b1 = jnp.zeros(3, dtype=c.dtype)
-    b2 = jnp.zeros(3, dtype=c.dtype)
-    for j in range(c.shape[1] - 1, 0, -1):                      # static loop (13 terms)
-        b1, b2 = 2.0 * x * b1 - b2 + c[:, j], b1
-    return x * b1 - b2 + c[:, 0]
+    x2 = 2.0 * x
+    T = [jnp.ones_like(x), x]
+    for _ in range(coef.shape[2] - 2):                            # static (13 terms)
+        T.append(x2 * T[-1] - T[-2])
+    return jnp.dot(coef[k], jnp.stack(T))
 
 
 @jax.tree_util.register_pytree_node_class
@@ -355,6 +356,11 @@ class ChebyshevEphemeris:
         self.check_time(t)
         return _velocity(self, body, jnp.asarray(t, dtype=jnp.float64))
 
+    def positions(self, t):
+        """(Moon, Sun) geocentric positions [m] sharing one Moon series evaluation."""
+        self.check_time(t)
+        return _positions(self, jnp.asarray(t, dtype=jnp.float64))
+
     def position_velocity(self, body: str, t):
         """(position [m], velocity [m/s]) in one forward-mode pass (jax.jvp with dt = 1)."""
         _check_body(body)
@@ -367,19 +373,24 @@ def _check_body(body):
         raise ConfigError("third_bodies", body, f"unknown body; expected one of {list(BODIES)}")
 
 
-def _position_raw(eph: ChebyshevEphemeris, body: str, t):
+def _positions_raw(eph: ChebyshevEphemeris, t):
     moon_km = chebyshev_series(eph.moon_coef, eph.moon_start, eph.moon_len, t)
-    if body == "moon":
-        r_km = moon_km
-    else:
-        se_km = chebyshev_series(eph.sun_emb_coef, eph.sun_emb_start, eph.sun_emb_len, t)
-        r_km = se_km + eph.earth_share * moon_km
+    se_km = chebyshev_series(eph.sun_emb_coef, eph.sun_emb_start, eph.sun_emb_len, t)
     ok = (t >= eph.t_min) & (t <= eph.t_max)
-    return jnp.where(ok, 1e3 * r_km, jnp.nan)
+    scale = jnp.where(ok, 1e3, jnp.nan)                          # m per km, NaN outside window
+    return scale * moon_km, scale * (se_km + eph.earth_share * moon_km)
+
+
+def _position_raw(eph: ChebyshevEphemeris, body: str, t):
+    if body == "moon":
+        ok = (t >= eph.t_min) & (t <= eph.t_max)
+        return jnp.where(ok, 1e3, jnp.nan) * chebyshev_series(eph.moon_coef, eph.moon_start, eph.moon_len, t)
+    return _positions_raw(eph, t)[1]
 
 
 # jitted once per (window shape, body); nested inside a caller's jit they are simply inlined
 _position = jax.jit(_position_raw, static_argnums=1)
+_positions = jax.jit(_positions_raw)
 _velocity = jax.jit(lambda eph, body, t: jax.jacfwd(_position_raw, argnums=2)(eph, body, t),
                     static_argnums=1)
 _position_velocity = jax.jit(

@@ -101,46 +101,68 @@ def _norm(n: int, m: int) -> float:
 def geopotential(r_itrs, C, S, gm, radius, degree: int = 4, order: int = 4):
     """Perturbing geopotential U [m^2/s^2] (degrees 2..degree, orders 0..min(n, order)).
 
-    r_itrs: (3,) Earth-fixed position [m]; C, S: fully normalized (>= degree+1 square arrays);
-    degree, order: static Python ints. See the module docstring for the formula.
+    r_itrs: (3,) Earth-fixed position [m]; C, S: fully normalized coefficients, square arrays of
+    size >= degree+1. With numpy C, S (the normal case) the coefficients are compile-time
+    constants and zero terms (S_n0, ...) are skipped; jax arrays also work (traced).
+    degree, order: static Python ints. Formula and recursion: module docstring.
+
+    Why scalar code and not a vectorized form: this function is differentiated three times by
+    the solver (field -> sensitivities). A dense-polynomial variant (monomial cube contracted with
+    a coefficient tensor) compiled slower and ran ~15x slower on CPU than this unrolled scalar
+    recursion, which XLA fuses into one kernel.
     """
+    static = isinstance(C, np.ndarray) and isinstance(S, np.ndarray)
     x, y, z = r_itrs[0], r_itrs[1], r_itrs[2]
-    r2 = x * x + y * y + z * z
-    r = jnp.sqrt(r2)
+    r = jnp.sqrt(x * x + y * y + z * z)
     u = z / r
     inv_r = 1.0 / r
-    # (x + i y)^m
-    cm, sm = [jnp.ones_like(x)], [jnp.zeros_like(x)]
+    cm, sm = [None], [None]                                    # (x + i y)^m, m >= 1
+    c_prev, s_prev = None, None
     for m in range(1, order + 1):
-        c_prev, s_prev = cm[m - 1], sm[m - 1]
-        cm.append(x * c_prev - y * s_prev)
-        sm.append(x * s_prev + y * c_prev)
-    # A_nm(u) = d^m P_n / du^m
-    A = {}
+        if m == 1:
+            c_prev, s_prev = x, y
+        else:
+            c_prev, s_prev = x * c_prev - y * s_prev, x * s_prev + y * c_prev
+        cm.append(c_prev)
+        sm.append(s_prev)
+    A = {}                                                     # A_nm(u) = d^m P_n / du^m
     for m in range(0, order + 1):
-        A[(m, m)] = jnp.full_like(u, float(math.prod(range(1, 2 * m, 2))))   # (2m-1)!!
+        A[(m, m)] = float(math.prod(range(1, 2 * m, 2)))      # (2m-1)!!, a constant
         if m + 1 <= degree:
-            A[(m + 1, m)] = (2 * m + 1) * u * A[(m, m)]
+            A[(m + 1, m)] = (2 * m + 1) * A[(m, m)] * u
         for n in range(m + 2, degree + 1):
             A[(n, m)] = ((2 * n - 1) * u * A[(n - 1, m)] - (n + m - 1) * A[(n - 2, m)]) / (n - m)
-    total = jnp.zeros_like(x)
-    ar = radius * inv_r                  # a_e / r
-    arn = ar                             # (a_e/r)^n, starts at n = 1
+    total = 0.0
+    ar = radius * inv_r
+    arn = ar
     for n in range(2, degree + 1):
-        arn = arn * ar
-        inner = jnp.zeros_like(x)
-        inv_rm = jnp.ones_like(x)        # 1 / r^m
+        arn = arn * ar                                         # (a_e / r)^n
+        inner = 0.0
+        inv_rm = 1.0                                           # 1 / r^m
         for m in range(0, min(n, order) + 1):
             if m > 0:
                 inv_rm = inv_rm * inv_r
-            inner = inner + _norm(n, m) * A[(n, m)] * (C[n, m] * cm[m] + S[n, m] * sm[m]) * inv_rm
+            cnm, snm = C[n, m], S[n, m]
+            if static:
+                cnm, snm = float(cnm), float(snm)
+                if cnm == 0.0 and snm == 0.0:
+                    continue
+            if m == 0:
+                term = cnm
+            elif static and snm == 0.0:
+                term = cnm * cm[m]
+            elif static and cnm == 0.0:
+                term = snm * sm[m]
+            else:
+                term = cnm * cm[m] + snm * sm[m]
+            inner = inner + (_norm(n, m) * term) * A[(n, m)] * inv_rm
         total = total + arn * inner
     return gm * inv_r * total
 
 
 def geopotential_acceleration(r_itrs, C, S, gm, radius, degree: int = 4, order: int = 4):
     """grad U [m/s^2] in the Earth-fixed frame, by ``jax.grad`` of :func:`geopotential`."""
-    return jax.grad(geopotential)(r_itrs, C, S, gm, radius, degree, order)
+    return jax.grad(geopotential)(jnp.asarray(r_itrs, dtype=jnp.float64), C, S, gm, radius, degree, order)
 
 
 def j2_potential(r, mu, j2, radius):
@@ -181,14 +203,13 @@ def third_body_acceleration(r, r_body, mu_body):
 class PerturbationModel:
     """Everything :func:`perturbing_acceleration` needs; a JAX pytree.
 
-    Leaves: ``rot`` (EarthRotation), ``eph`` (ChebyshevEphemeris or None), ``C``, ``S``, ``gm``,
-    ``radius``, ``j2``, ``mu_bodies`` (array aligned with ``bodies``). Static: ``gravity`` in
-    {"none", "j2", "sh"}, ``degree``, ``order``, ``bodies`` (tuple of names), ``epoch`` (s TDB).
+    Leaves: ``rot`` (EarthRotation), ``eph`` (ChebyshevEphemeris or None), ``gm``, ``radius``,
+    ``j2``, ``mu_bodies`` (array aligned with ``bodies``). Static: ``gravity`` in
+    {"none", "j2", "sh"}, ``degree``, ``order``, ``bodies`` (tuple of names), ``epoch`` (s TDB),
+    ``cs`` (the EGM96 C and S as nested tuples: compile-time constants).
     """
     rot: EarthRotation
     eph: ChebyshevEphemeris | None
-    C: jax.Array
-    S: jax.Array
     gm: jax.Array
     radius: jax.Array
     j2: jax.Array
@@ -198,10 +219,11 @@ class PerturbationModel:
     order: int = 0
     bodies: tuple = ()
     epoch: float = 0.0
+    cs: tuple = ((), ())
 
     def tree_flatten(self):
-        return ((self.rot, self.eph, self.C, self.S, self.gm, self.radius, self.j2, self.mu_bodies),
-                (self.gravity, self.degree, self.order, self.bodies, self.epoch))
+        return ((self.rot, self.eph, self.gm, self.radius, self.j2, self.mu_bodies),
+                (self.gravity, self.degree, self.order, self.bodies, self.epoch, self.cs))
 
     @classmethod
     def tree_unflatten(cls, aux, leaves):
@@ -265,10 +287,11 @@ def build_model(config, epoch_utc: str, ephemeris=None, key: str = "perturbation
         eph.check_time(float(rot.epoch), key=f"{key}.epoch")
     egm = load_egm96()
     return PerturbationModel(
-        rot, eph, jnp.asarray(egm["C"]), jnp.asarray(egm["S"]), jnp.float64(egm["gm"]),
+        rot, eph, jnp.float64(egm["gm"]),
         jnp.float64(egm["radius"]), jnp.float64(egm["j2"]),
         jnp.asarray([THIRD_BODY_MU[b] for b in bodies], dtype=jnp.float64).reshape(len(bodies)),
-        gravity, degree, order, tuple(bodies), float(rot.epoch))
+        gravity, degree, order, tuple(bodies), float(rot.epoch),
+        (tuple(map(tuple, egm["C"].tolist())), tuple(map(tuple, egm["S"].tolist()))))
 
 
 def acceleration_terms(r, t, model: PerturbationModel) -> dict:
@@ -282,11 +305,13 @@ def acceleration_terms(r, t, model: PerturbationModel) -> dict:
         if model.gravity == "j2":
             out["j2"] = M.T @ j2_acceleration(r_f, model.gm, model.j2, model.radius)
         else:
-            a_f = geopotential_acceleration(r_f, model.C, model.S, model.gm, model.radius,
-                                            model.degree, model.order)
+            a_f = geopotential_acceleration(r_f, np.array(model.cs[0]), np.array(model.cs[1]),
+                                            model.gm, model.radius, model.degree, model.order)
             out["geopotential"] = M.T @ a_f
-    for i, b in enumerate(model.bodies):
-        out[b] = third_body_acceleration(r, model.eph.position(b, t), model.mu_bodies[i])
+    if model.bodies:
+        pos = dict(zip(("moon", "sun"), model.eph.positions(t)))
+        for i, b in enumerate(model.bodies):
+            out[b] = third_body_acceleration(r, pos[b], model.mu_bodies[i])
     return out
 
 
