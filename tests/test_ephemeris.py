@@ -160,3 +160,29 @@ def test_artifact_roundtrip(tmp_path, de405, eph):
     npz.write_bytes(npz.read_bytes()[:-10])
     with pytest.raises(ArtifactError, match="checksum"):
         E.load_ephemeris(path)
+
+
+def test_configured_windows_cover_the_studies():
+    """config/studies/ephemeris.yaml validates and its windows cover the spec §4.2 studies."""
+    from pathlib import Path
+
+    import yaml
+    from snakemake.utils import validate
+
+    root = Path(__file__).resolve().parents[1]
+    cfg = yaml.safe_load((root / "config/studies/ephemeris.yaml").read_text())["ephemeris"]
+    validate(cfg, str(root / "config/schema/ephemeris.schema.yaml"))
+    win = cfg["windows"]
+
+    def covers(name, first_departure, last_departure, days):
+        lo = E.utc_to_tdb_seconds(win[name]["start"])
+        hi = E.utc_to_tdb_seconds(win[name]["end"])
+        return (lo <= E.utc_to_tdb_seconds(first_departure)
+                and E.utc_to_tdb_seconds(last_departure) + days * 86400.0 <= hi)
+
+    assert covers("may2021", "2021-05-01T12:00:00", "2021-05-31T12:00:00", 70)   # E5/E6
+    assert covers("may2021", "2021-05-09T12:00:00", "2021-05-09T12:00:00", 140)  # E7 (assumed), E9
+    assert covers("jan2000", "2000-01-01T12:00:00", "2000-01-01T12:00:00", 340)  # E8
+    bad = {"windows": {"x": {"start": "2021-05-01", "finish": "2021-06-01"}}}
+    with pytest.raises(Exception, match="finish|end"):
+        validate(bad, str(root / "config/schema/ephemeris.schema.yaml"))

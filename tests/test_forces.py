@@ -258,3 +258,22 @@ def test_third_bodies_need_ephemeris_covering_epoch(eph):
         Fo.build_model({"third_bodies": ["moon"]}, EPOCH)
     with pytest.raises(ConfigError, match="perturbations.epoch='2022-01-01"):
         Fo.build_model({"third_bodies": ["moon"]}, "2022-01-01T00:00:00", eph)
+
+
+def test_models_for_other_dates_reuse_the_compiled_function(eph):
+    """E6 solves 31 departure dates: the epoch must be data, not a compile-time constant."""
+    traces = []
+
+    @jax.jit
+    def f(r, t, m):
+        traces.append(1)
+        return Fo.perturbing_acceleration(r, t, m)
+
+    cfg = {"geopotential": "j2", "third_bodies": ["moon", "sun"]}
+    r = jnp.array([R_GEO, 0.0, 0.0])
+    outs = []
+    for day in ("2021-05-01T12:00:00", "2021-05-02T12:00:00"):
+        m = Fo.build_model(cfg, day, eph)
+        outs.append(np.asarray(f(r, m.epoch, m)))
+    assert len(traces) == 1
+    assert not np.allclose(outs[0], outs[1])

@@ -205,8 +205,10 @@ class PerturbationModel:
 
     Leaves: ``rot`` (EarthRotation), ``eph`` (ChebyshevEphemeris or None), ``gm``, ``radius``,
     ``j2``, ``mu_bodies`` (array aligned with ``bodies``). Static: ``gravity`` in
-    {"none", "j2", "sh"}, ``degree``, ``order``, ``bodies`` (tuple of names), ``epoch`` (s TDB),
-    ``cs`` (the EGM96 C and S as nested tuples: compile-time constants).
+    {"none", "j2", "sh"}, ``degree``, ``order``, ``bodies`` (tuple of names), ``cs`` (the EGM96
+    C and S as nested tuples: compile-time constants). Everything that depends on the epoch is
+    a leaf, so models for different departure dates (E6) share one compiled solver.
+    ``epoch`` (property): t0 in s TDB past J2000, a 0-d array.
     """
     rot: EarthRotation
     eph: ChebyshevEphemeris | None
@@ -218,12 +220,15 @@ class PerturbationModel:
     degree: int = 0
     order: int = 0
     bodies: tuple = ()
-    epoch: float = 0.0
     cs: tuple = ((), ())
+
+    @property
+    def epoch(self):
+        return self.rot.epoch
 
     def tree_flatten(self):
         return ((self.rot, self.eph, self.gm, self.radius, self.j2, self.mu_bodies),
-                (self.gravity, self.degree, self.order, self.bodies, self.epoch, self.cs))
+                (self.gravity, self.degree, self.order, self.bodies, self.cs))
 
     @classmethod
     def tree_unflatten(cls, aux, leaves):
@@ -290,7 +295,7 @@ def build_model(config, epoch_utc: str, ephemeris=None, key: str = "perturbation
         rot, eph, jnp.float64(egm["gm"]),
         jnp.float64(egm["radius"]), jnp.float64(egm["j2"]),
         jnp.asarray([THIRD_BODY_MU[b] for b in bodies], dtype=jnp.float64).reshape(len(bodies)),
-        gravity, degree, order, tuple(bodies), float(rot.epoch),
+        gravity, degree, order, tuple(bodies),
         (tuple(map(tuple, egm["C"].tolist())), tuple(map(tuple, egm["S"].tolist()))))
 
 
