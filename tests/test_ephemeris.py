@@ -186,3 +186,14 @@ def test_configured_windows_cover_the_studies():
     bad = {"windows": {"x": {"start": "2021-05-01", "finish": "2021-06-01"}}}
     with pytest.raises(Exception, match="finish|end"):
         validate(bad, str(root / "config/schema/ephemeris.schema.yaml"))
+
+
+def test_vector_times(eph):
+    ts = T_DAY0 + np.array([0.0, 1.5e5, 3.0e6])
+    p = np.asarray(eph.position("sun", ts))
+    v = np.asarray(eph.velocity("moon", ts))
+    assert p.shape == (3, 3) and v.shape == (3, 3)
+    assert np.allclose(p[1], np.asarray(eph.sun(ts[1])), rtol=1e-15, atol=0)
+    assert np.allclose(v[2], np.asarray(eph.velocity("moon", ts[2])), rtol=1e-14, atol=0)
+    pm, ps = eph.positions(ts)
+    assert np.allclose(np.asarray(ps), p, rtol=1e-15, atol=0)

@@ -349,27 +349,38 @@ class ChebyshevEphemeris:
         return self.position("sun", t)
 
     def position(self, body: str, t):
-        """Geocentric position [m] of ``body`` in {'moon', 'sun'} at t [s TDB past J2000]."""
+        """Geocentric position [m] of ``body`` in {'moon', 'sun'} at t [s TDB past J2000].
+
+        t: scalar (result (3,)) or 1-d array (result (n, 3)); pure JAX, usable under jit/grad."""
         _check_body(body)
         self.check_time(t)
-        return _position(self, body, jnp.asarray(t, dtype=jnp.float64))
+        return _batched(_position, self, body, t)
 
     def velocity(self, body: str, t):
         """Geocentric velocity [m/s] = d position/dt by forward-mode AD."""
         _check_body(body)
         self.check_time(t)
-        return _velocity(self, body, jnp.asarray(t, dtype=jnp.float64))
+        return _batched(_velocity, self, body, t)
 
     def positions(self, t):
         """(Moon, Sun) geocentric positions [m] sharing one Moon series evaluation."""
         self.check_time(t)
-        return _positions(self, jnp.asarray(t, dtype=jnp.float64))
+        t = jnp.asarray(t, dtype=jnp.float64)
+        return _positions(self, t) if t.ndim == 0 else jax.vmap(lambda s: _positions(self, s))(t)
 
     def position_velocity(self, body: str, t):
         """(position [m], velocity [m/s]) in one forward-mode pass (jax.jvp with dt = 1)."""
         _check_body(body)
         self.check_time(t)
-        return _position_velocity(self, body, jnp.asarray(t, dtype=jnp.float64))
+        return _batched(_position_velocity, self, body, t)
+
+
+def _batched(fn, eph, body, t):
+    """Scalar t: fn(eph, body, t); array t: vmapped over t (leading axis of the result)."""
+    t = jnp.asarray(t, dtype=jnp.float64)
+    if t.ndim == 0:
+        return fn(eph, body, t)
+    return jax.vmap(lambda s: fn(eph, body, s))(t.ravel())
 
 
 def _check_body(body):
