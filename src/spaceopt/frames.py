@@ -31,9 +31,11 @@ Time arguments: t is seconds TDB past J2000 (JD 2451545.0 TDB), the convention o
 :mod:`spaceopt.ephemeris`. UT1 and TT for theta(t) follow from t by constant offsets fixed at the
 epoch: UT1 = t - (TDB - UT1)(t0), TT = t - (TDB - TT)(t0). Neglected: the periodic part of
 TDB - TT (<= 1.7 ms, i.e. <= 1.2e-7 rad in theta) and any leap second inside the window (none
-in 1999-12 .. 2005-12 or 2017-01 .. 2026). UT1 - UTC defaults to 0 (option ``ut1_minus_utc``,
-seconds; |UT1-UTC| < 0.9 s, i.e. < 6.6e-5 rad). Polar motion (xp, yp) and the TIO locator s'
-are set to zero (identity polar-motion matrix, as in the thesis). ICRS and GCRS axes are
+between 1999-01-01 and 2006-01-01, none since 2017-01-01 as far as announced; the configured
+windows lie inside these spans; a leap second would shift theta by 7.3e-5 rad).
+UT1 - UTC defaults to 0 (option ``ut1_minus_utc``, seconds; |UT1-UTC| < 0.9 s, i.e.
+< 6.6e-5 rad). Polar motion (xp, yp) and the TIO locator s' (~5e-11 rad in 2021) are set to
+zero (identity polar-motion matrix, as in the thesis). ICRS and GCRS axes are
 identified (geocentric vectors).
 
 Why hand-written: pyerfa is numpy-only and not differentiable; it is used once at t0 (matrix and
