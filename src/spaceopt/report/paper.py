@@ -199,7 +199,9 @@ def errata_markdown(entries: list[dict]) -> str:
 
 # ----------------------------------------------------------------------------- performance
 
-_TIME_KEYS = ("median_s", "wall_s", "wall_time_s", "mean_s", "time_s", "min_s")
+_TIME_KEYS = ("median_wall_s", "median_s", "wall_s", "wall_time_s", "mean_s", "time_s", "min_wall_s", "min_s")
+_SKIP_KEYS = {"provenance", "machine", "host", "summary", "units", "note", "suite", "stderr_tail"}
+_MAX_DETAILS = 6
 
 
 def load_benchmark(path) -> dict:
@@ -212,48 +214,65 @@ def load_benchmark(path) -> dict:
         raise ArtifactError(f"artifact={str(path)!r}: corrupted or truncated JSON ({exc.msg})") from None
 
 
+def _time_of(d: dict):
+    return next((d[k] for k in _TIME_KEYS if isinstance(d.get(k), (int, float)) and not isinstance(d.get(k), bool)),
+                None)
+
+
 def benchmark_rows(path) -> list[dict]:
     """Rows ``{suite, name, time_s, compile_s, details}`` of one benchmark JSON.
 
-    Accepted layouts (docs/conventions-paper.md): ``{"results": [{"name": ..., "median_s": ...,
-    ...}, ...]}`` (or ``"benchmarks"``), or a flat mapping ``{name: seconds or {...}}``.
+    Every mapping in the file that holds a time (the first of ``median_wall_s``, ``median_s``,
+    ``wall_s``, ``wall_time_s``, ``mean_s``, ``time_s``, ``min_wall_s``, ``min_s``) becomes a row
+    named by its path of keys (or its ``name``); ``compile_s`` is shown separately and other
+    scalars are details. Lists of such mappings (``{"results": [{"name": ..., ...}]}``) and flat
+    ``{case: seconds}`` mappings work too (docs/conventions-paper.md). ``provenance``,
+    ``machine`` and ``summary`` blocks are not rows.
     """
     data = load_benchmark(path)
-    suite = data.get("suite", Path(path).stem) if isinstance(data, dict) else Path(path).stem
-    entries = None
-    if isinstance(data, dict):
-        for key in ("results", "benchmarks"):
-            if isinstance(data.get(key), list):
-                entries = data[key]
-                break
-        if entries is None:
-            skip = {"suite", "machine", "host", "provenance", "note", "units"}
-            entries = []
-            for k, v in data.items():
-                if k in skip:
-                    continue
-                if isinstance(v, dict):
-                    entries.append({"name": k, **v})
-                elif isinstance(v, (int, float)) and not isinstance(v, bool):
-                    entries.append({"name": k, "time_s": v})
-    elif isinstance(data, list):
-        entries = data
-    rows = []
-    for i, e in enumerate(entries or []):
-        if not isinstance(e, dict):
-            continue
-        t = next((e[k] for k in _TIME_KEYS if isinstance(e.get(k), (int, float))), None)
-        used = {"name", "compile_s", *_TIME_KEYS}
-        details = ", ".join(f"{k}={_short(v)}" for k, v in sorted(e.items())
-                            if k not in used and isinstance(v, (int, float, str, bool)))
-        rows.append({"suite": suite, "name": str(e.get("name", f"#{i}")), "time_s": t,
-                     "compile_s": e.get("compile_s"), "details": details})
+    suite = str(data.get("suite", Path(path).stem)) if isinstance(data, dict) else Path(path).stem
+    rows: list[dict] = []
+
+    def walk(node, name):
+        if isinstance(node, dict):
+            t = _time_of(node)
+            if t is not None:
+                used = {"name", "compile_s", *_TIME_KEYS}
+                details = [f"{k}={_short(v)}" for k, v in sorted(node.items())
+                           if k not in used and k not in _SKIP_KEYS
+                           and isinstance(v, (int, float, str, bool)) and len(str(v)) <= 40]
+                rows.append({"suite": suite, "name": str(node.get("name", name or "total")), "time_s": t,
+                             "compile_s": node.get("compile_s"),
+                             "details": ", ".join(details[:_MAX_DETAILS])})
+            if t is None and not name and _flat(node):          # top level {case: seconds}
+                for k, v in node.items():
+                    if k not in _SKIP_KEYS:
+                        rows.append({"suite": suite, "name": f"{name}/{k}" if name else k, "time_s": v,
+                                     "compile_s": None, "details": ""})
+                return
+            for k, v in node.items():
+                if k not in _SKIP_KEYS and isinstance(v, (dict, list)):
+                    walk(v, f"{name}/{k}" if name else k)
+        elif isinstance(node, list):
+            for i, v in enumerate(node):
+                if isinstance(v, (dict, list)):
+                    walk(v, f"{name}[{i}]")
+
+    walk(data, "")
     return rows
+
+
+def _flat(node: dict) -> bool:
+    """A flat ``{case: seconds}`` mapping: only numbers (besides skipped blocks)."""
+    vals = [v for k, v in node.items() if k not in _SKIP_KEYS]
+    return bool(vals) and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals)
 
 
 def _short(v) -> str:
     if isinstance(v, float):
         return f"{v:.4g}"
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_short(x) for x in v) + "]"
     return str(v)
 
 
@@ -267,7 +286,7 @@ def machine_of(path) -> str:
     data = load_benchmark(path)
     m = data.get("machine") or data.get("host") if isinstance(data, dict) else None
     if isinstance(m, dict):
-        return ", ".join(f"{k}: {v}" for k, v in sorted(m.items()))
+        return ", ".join(f"{k}: {_short(v)}" for k, v in sorted(m.items()))
     return str(m) if m else ""
 
 
@@ -281,15 +300,18 @@ def performance_tex(paths) -> str:
                    r"(they write \texttt{results/benchmarks/*.json}).")
         return "\n".join(out) + "\n"
     out += [r"{\small\setlength{\tabcolsep}{4pt}",
-            r"\begin{longtable}{@{}llrr>{\raggedright\arraybackslash}p{0.42\linewidth}@{}}",
+            r"\begin{longtable}{@{}>{\raggedright\arraybackslash}p{0.09\linewidth}>{\raggedright\arraybackslash}p{0.34\linewidth}"
+            r">{\raggedleft\arraybackslash}p{0.08\linewidth}>{\raggedleft\arraybackslash}p{0.08\linewidth}"
+            r">{\raggedright\arraybackslash}p{0.33\linewidth}@{}}",
             r"\caption{Benchmark results (wall-clock seconds; compile time of JAX kernels separately "
             r"where the harness measures it).}\label{tab:performance}\\",
             r"\toprule suite & case & time, s & compile, s & details \\ \midrule\endfirsthead",
             r"\toprule suite & case & time, s & compile, s & details \\ \midrule\endhead",
             r"\bottomrule\endfoot"]
     for r in rows:
-        out.append(" & ".join([latex_escape(r["suite"]), latex_escape(r["name"]), _fmt_s(r["time_s"]),
-                               _fmt_s(r["compile_s"]), latex_escape(r["details"])]) + r" \\")
+        out.append(" & ".join([breakable(latex_escape(r["suite"])), breakable(latex_escape(r["name"])),
+                               _fmt_s(r["time_s"]), _fmt_s(r["compile_s"]),
+                               breakable(latex_escape(r["details"]))]) + r" \\")
     out += [r"\end{longtable}}"]
     machines = sorted({(Path(p).stem, machine_of(p)) for p in paths if machine_of(p)})
     if machines:
@@ -301,6 +323,7 @@ def performance_tex(paths) -> str:
 def performance_markdown(paths) -> str:
     rows = [r for p in sorted({str(p) for p in paths}) for r in benchmark_rows(p)]
     out = ["| suite | case | time, s | compile, s | details |", "|---|---|---:|---:|---|"]
-    out += [f"| {r['suite']} | {r['name']} | {_fmt_s(r['time_s'])} | {_fmt_s(r['compile_s'])} | "
-            f"{r['details']} |" for r in rows]
+    cell = lambda x: str(x).replace("|", "\\|")  # noqa: E731
+    out += [f"| {cell(r['suite'])} | {cell(r['name'])} | {_fmt_s(r['time_s'])} | {_fmt_s(r['compile_s'])} | "
+            f"{cell(r['details'])} |" for r in rows]
     return "\n".join(out) + "\n"
