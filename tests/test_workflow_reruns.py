@@ -259,3 +259,20 @@ def test_report_rules_collect_reproduction_tables_lazily(built):
         assert re.search(r"input: [^\n]*results/zz_late/reproduction_extra\.csv", proc.stdout + proc.stderr)
     finally:
         extra.unlink()
+
+
+def test_paper_sections_use_fragments_first_then_automatic_sections():
+    from spaceopt.report.paper import sections_tex
+
+    tex = sections_tex("results",
+                       fragments=["results/multirev/paper_section.tex"],
+                       repro=[],
+                       figures=["results/discrete/figures/a.png", "results/discrete/figures/a.pdf",
+                                "results/multirev/figures/x.pdf", "results/zeta/figures/z.png"],
+                       section_order=["multirev", "discrete*"])
+    lines = [line for line in tex.splitlines() if line.startswith(("\\input", "% study"))]
+    assert lines[:2] == ["% study multirev", "\\input{results/multirev/paper_section.tex}"]
+    assert lines[2].startswith("% study discrete (automatic") and lines[3].startswith("% study zeta (automatic")
+    assert "results/discrete/figures/a.pdf" in tex and "figures/a.png" not in tex   # PDF preferred
+    assert "results/multirev/figures/x.pdf" not in tex                              # the fragment decides
+    assert "No study" in sections_tex("results")
