@@ -7,8 +7,8 @@ import pytest
 from spaceopt.indirect import hamiltonians as hm
 from spaceopt.indirect.flow import Model, field, hamiltonian_field
 
-PRM = {"c": 4.848041, "thrust": 0.0669, "eps_final": 1e-5, "lp_scale": 1.0, "blend_ref": 1.0,
-       "thrust_a": 0.0, "thrust_b": 0.0}
+PRM = {"c": 4.848041, "thrust": 0.0669, "eps_final": 1e-5, "eps_blend": 1e-2, "lp_scale": 1.0,
+       "blend_ref": 1.0}
 
 
 def random_point(seed, n=8):
@@ -79,9 +79,8 @@ def test_tmin_thrust_costate_equation_2_3_9(seed):
 def test_smoothed_delta_frozen_in_costates_but_seen_by_sensitivities():
     K, x, lam = random_point(7)
     y = jnp.concatenate([x, lam])
-    prm = {**PRM, "thrust": PRM["thrust"]}
-    model = Model("ot", "thrust")
-    prm = {**prm, "thrust_a": 0.0669, "thrust_b": 0.0669, "eps_final": 0.2}
+    model = Model("ot", "eps")
+    prm = {**PRM, "thrust": 0.0669, "eps_blend": 0.2, "eps_final": 0.2}
     g = field(model, K, y, 1.0, prm)
     # costate rows equal −∂H/∂x with δ held constant
     S = hm.switching_ot(K, x, lam, {**prm, "thrust": 0.0669})

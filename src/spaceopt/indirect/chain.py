@@ -33,10 +33,18 @@ from .transfer import Transfer
 
 ORBIT_COSTATES = (hm.P, hm.EX, hm.EY, hm.IX, hm.IY, hm.LK)
 LP_SHOOTING = Shooting(Model("lp"), ORBIT_COSTATES)
-OT_SHOOTING = Shooting(Model("ot", "lp"), ORBIT_COSTATES + (hm.MASS,))
-OT_THRUST_SHOOTING = Shooting(Model("ot", "thrust"), ORBIT_COSTATES + (hm.MASS,))
-OT_EPS_SHOOTING = Shooting(Model("ot", "eps"), ORBIT_COSTATES + (hm.MASS,))
-TMIN_SHOOTING = Shooting(Model("tmin", "lp"), ORBIT_COSTATES + (hm.MASS,))
+
+
+def shooting_for(kind: str, homotopy: str, perturbed: bool) -> Shooting:
+    """OT / T_min shooting layout; perturbed problems add p_t to the unknowns."""
+    free = ORBIT_COSTATES + ((hm.TIME,) if perturbed else ()) + (hm.MASS,)
+    return Shooting(Model(kind, homotopy, perturbed), free)
+
+
+def start_vector(sh: Shooting, costates: dict, K_f: float, thrust=None) -> np.ndarray:
+    """z in the layout of ``sh`` from named costates (missing ones start at 0)."""
+    z = [costates.get(name, 0.0) for name in sh.unknown_names() if name.startswith("p_")]
+    return np.asarray(z + [K_f] + ([thrust] if sh.has_thrust else []), dtype=float)
 
 
 @dataclass
@@ -58,6 +66,10 @@ class Solution:
     def costates(self):
         names = self.shooting.unknown_names()
         return {n: float(v) for n, v in zip(names, self.z) if n.startswith("p_")}
+
+    def doubled_costates(self):
+        """LP costates in the homotopy normalisation ½k|A|² (2 × those of (2.2.8))."""
+        return {n: 2.0 * v for n, v in self.costates().items()}
 
 
 PATH_RTOL = 1e-9     # integration tolerance while following the path; the end point uses sh.rtol
@@ -104,9 +116,9 @@ def solve_tmin(lp: Solution, options=None, label="tmin") -> Solution:
     tr = lp.transfer
     prm = {**tr.params(), "blend_ref": jnp.asarray(blend_reference(lp))}
     T0 = tmin_initial_guess(lp) / tr.force_unit
-    z0 = np.concatenate([2.0 * lp.z[:6], [0.0, lp.K_f, T0]])
-    z, stats = _run(TMIN_SHOOTING, z0, prm, label, options)
-    sol = Solution("tmin", TMIN_SHOOTING, z, prm, tr, stats)
+    sh = shooting_for("tmin", "lp", tr.perturbed)
+    z, stats = _run(sh, start_vector(sh, lp.doubled_costates(), lp.K_f, T0), prm, label, options)
+    sol = Solution("tmin", sh, z, prm, tr, stats)
     sol.thrust_N = float(z[-1]) * tr.force_unit
     sol.extra["T0_N"] = T0 * tr.force_unit
     return sol
@@ -129,30 +141,46 @@ def solve_ot(lp: Solution, thrust_N: float, options=None, label="ot") -> Solutio
     """LP → OT homotopy (3.3.1) at thrust T."""
     tr = lp.transfer
     prm = {**tr.params(thrust=thrust_N), "blend_ref": jnp.asarray(blend_reference(lp))}
-    z0 = np.concatenate([2.0 * lp.z[:6], [0.0, lp.K_f]])
-    z, stats = _run(OT_SHOOTING, z0, prm, label + " LP->OT", options)
+    sh = shooting_for("ot", "lp", tr.perturbed)
+    z, stats = _run(sh, start_vector(sh, lp.doubled_costates(), lp.K_f), prm, label + " LP->OT", options)
+    sh_eps = shooting_for("ot", "eps", tr.perturbed)
     if tr.eps_blend > tr.eps_final:
-        z, stats_eps = _run(OT_EPS_SHOOTING, z, prm, label + " eps", options)
+        z, stats_eps = _run(sh_eps, z, prm, label + " eps", options)
         stats = {"lp_to_ot": stats, "eps": stats_eps,
                  **{k: stats[k] + stats_eps[k] for k in stats if k != "final_residual"},
                  "final_residual": stats_eps["final_residual"]}
-    return Solution("ot", OT_EPS_SHOOTING, z, tr.params(thrust=thrust_N), tr, stats, thrust_N=thrust_N)
+    return Solution("ot", sh_eps, z, tr.params(thrust=thrust_N), tr, stats, thrust_N=thrust_N)
+
+
+def continue_in_params(sol: Solution, prm_to: dict, options=None, label="param") -> Solution:
+    """From a converged solution to the same problem with other data (thrust, L0, L_f, …).
+
+    ``prm_to`` is a full parameter set (``Transfer.params``); the keys that differ from the
+    solution's are moved linearly in τ, everything else stays.
+    """
+    keys = [k for k in ("thrust", "L0", "Lf", "c") if not np.isclose(sol.prm[k], prm_to[k], rtol=0, atol=0)]
+    path = {k: sol.prm[k] for k in keys}
+    prm = {**prm_to, "path_from": path, "path_to": {k: prm_to[k] for k in keys}}
+    sh = dataclasses.replace(sol.shooting, model=dataclasses.replace(sol.shooting.model, homotopy="param"))
+    z, stats = _run(sh, sol.z, prm, label, options)
+    out = Solution(sol.stage, sol.shooting, z, dict(prm_to), sol.transfer, stats)
+    if sol.stage == "tmin":
+        out.thrust_N = float(z[-1]) * sol.transfer.force_unit
+    return out
 
 
 def continue_ot_in_thrust(ot: Solution, thrust_N: float, options=None, label="ot-thrust") -> Solution:
     """From a converged OT solution at T_a to thrust T_b, at ε = ε_f."""
-    tr = ot.transfer
-    prm = dict(tr.params(thrust=thrust_N))
-    prm["thrust_a"] = jnp.asarray(ot.thrust_N / tr.force_unit)
-    prm["thrust_b"] = jnp.asarray(thrust_N / tr.force_unit)
-    z, stats = _run(OT_THRUST_SHOOTING, ot.z, prm, label, options)
-    return Solution("ot", OT_EPS_SHOOTING, z, tr.params(thrust=thrust_N), tr, stats, thrust_N=thrust_N)
+    sol = continue_in_params(ot, ot.transfer.params(thrust=thrust_N), options, label)
+    sol.thrust_N = thrust_N
+    return sol
 
 
 # ---------------------------------------------------------------- dense trajectories
 
 def final_model(sol: Solution) -> Model:
-    return {"lp": Model("lp"), "tmin": Model("tmin", "lp"), "ot": Model("ot", "eps")}[sol.stage]
+    """The field of the converged problem at τ = 1."""
+    return sol.shooting.model
 
 
 def dense(sol: Solution, samples_per_rev: int = 200):

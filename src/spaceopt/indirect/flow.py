@@ -49,12 +49,17 @@ class Model:
 
     kind: 'lp' (LP, τ unused — Newton homotopy), 'ot' or 'tmin'.
     homotopy (for 'ot'): 'lp' — τ blends LP→OT and ε(τ) = 1 − τ + ε₁ τ (3.3.1);
-                         'eps' — pure OT with ε = ε₁^(1−τ) ε_f^τ (log-uniform smoothing);
-                         'thrust' — pure OT with T = T_a + τ (T_b − T_a) at ε = ε_f.
+                         'eps' — pure OT with ε = ε₁^(1−τ) ε_f^τ (log-uniform smoothing).
     homotopy (for 'tmin'): 'lp' — τ blends LP→T_min (3.4.1).
+    homotopy 'param' (any kind): the pure problem with problem data moved linearly from
+        ``prm['path_from']`` to ``prm['path_to']`` (thrust, L0, L_f, …) — warm starts along a
+        sweep or a thrust family.
+    perturbed: add H_p = k1 k2 (A·a_p) — switched on by τ in the blends (τ g_pert, (3.3.1) and
+    (3.4.1)), fully present in the pure problems; t is then a true state and p_t an unknown.
     """
     kind: str
     homotopy: str = "lp"
+    perturbed: bool = False
 
     @property
     def n(self) -> int:
@@ -65,13 +70,21 @@ def _lp_prime(prm):
     return {**prm, "lp_scale": 0.5}
 
 
+def params_at(model: Model, prm, tau):
+    """Problem data at τ: moved along the path for the 'param' homotopy, unchanged otherwise."""
+    if model.homotopy != "param":
+        return prm
+    frm, to = prm["path_from"], prm["path_to"]
+    return {**prm, **{k: frm[k] + tau * (to[k] - frm[k]) for k in frm}}
+
+
 def ot_params(model: Model, tau, prm):
     """Thrust and ε at τ for an OT model."""
-    if model.homotopy == "thrust":
-        return prm["thrust_a"] + tau * (prm["thrust_b"] - prm["thrust_a"]), prm["eps_final"]
     if model.homotopy == "eps":
         return prm["thrust"], prm["eps_blend"] ** (1.0 - tau) * prm["eps_final"] ** tau
-    return prm["thrust"], hm.epsilon_schedule(tau, prm["eps_blend"])
+    if model.homotopy == "lp":
+        return prm["thrust"], hm.epsilon_schedule(tau, prm["eps_blend"])
+    return prm["thrust"], prm["eps_final"]
 
 
 def ot_delta(model: Model, K, y, tau, prm):
@@ -82,19 +95,40 @@ def ot_delta(model: Model, K, y, tau, prm):
     return hm.smooth_delta(S, eps), S, prm_t
 
 
+def _pert_shift(model, y):
+    return -0.5 * y[hm.THRUST] ** 2 if model.kind == "tmin" else 0.0
+
+
+def _pert_weight(model, tau):
+    """τ in the LP→target blends, 1 in the pure problems."""
+    return tau if (model.kind != "lp" and model.homotopy == "lp") else 1.0
+
+
 def field(model: Model, K, y, tau, prm):
-    """dy/dK of ``model`` at homotopy parameter τ."""
+    """dy/dK of ``model`` at homotopy parameter τ (perturbation field added when perturbed)."""
+    prm = params_at(model, prm, tau)
+    g = _unperturbed_field(model, K, y, tau, prm)
+    if model.perturbed:
+        shift = _pert_shift(model, y)
+        g = g + _pert_weight(model, tau) * hamiltonian_field(
+            lambda K_, x_, l_: hm.h_pert(K_, x_, l_, prm, shift), K, y, model.n)
+    return g
+
+
+def _unperturbed_field(model: Model, K, y, tau, prm):
     n = model.n
     if model.kind == "lp":
         return hamiltonian_field(partial(hm.h_lp, prm={**prm, "lp_scale": 1.0}), K, y, n)
     if model.kind == "ot":
         delta, _, prm_t = ot_delta(model, K, y, tau, prm)
         g_tgt = hamiltonian_field(partial(hm.h_ot, prm=prm_t, delta=delta), K, y, n)
-        if model.homotopy in ("thrust", "eps"):
+        if model.homotopy != "lp":
             return g_tgt
         W = hm.primer_magnitude(K, y[:n], y[n:])
     elif model.kind == "tmin":
         g_tgt = hamiltonian_field(partial(hm.h_tmin, prm=prm), K, y, n)
+        if model.homotopy != "lp":
+            return g_tgt
         W = hm.primer_magnitude(K, y[:n], y[n:], -0.5 * y[hm.THRUST] ** 2)
     else:
         raise ValueError(model.kind)
@@ -110,7 +144,16 @@ def field(model: Model, K, y, tau, prm):
 
 
 def hamiltonian(model: Model, K, y, tau, prm):
-    """H entering the transversality residual p_LK(0) + H(0): (1−τ) H_LP' + τ H_target."""
+    """H entering the transversality residual p_LK(0) + H(0): (1−τ) H_LP' + τ H_target [+ τ H_p]."""
+    prm = params_at(model, prm, tau)
+    h = _unperturbed_hamiltonian(model, K, y, tau, prm)
+    if model.perturbed:
+        n = model.n
+        h = h + _pert_weight(model, tau) * hm.h_pert(K, y[:n], y[n:], prm, _pert_shift(model, y))
+    return h
+
+
+def _unperturbed_hamiltonian(model: Model, K, y, tau, prm):
     n = model.n
     x, lam = y[:n], y[n:]
     if model.kind == "lp":
@@ -118,10 +161,10 @@ def hamiltonian(model: Model, K, y, tau, prm):
     if model.kind == "ot":
         delta, _, prm_t = ot_delta(model, K, y, tau, prm)
         h_t = hm.h_ot(K, x, lam, prm_t, delta)
-        if model.homotopy in ("thrust", "eps"):
-            return h_t
     else:
         h_t = hm.h_tmin(K, x, lam, prm)
+    if model.homotopy != "lp":
+        return h_t
     return (1.0 - tau) * hm.h_lp(K, x, lam, _lp_prime(prm)) + tau * h_t
 
 

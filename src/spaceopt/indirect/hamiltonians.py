@@ -125,3 +125,32 @@ def smooth_delta(S, eps):
 def epsilon_schedule(tau, eps_final):
     """ε(τ) = 1 − τ + ε_f τ (spec 02-multirev §2.4)."""
     return 1.0 - tau + eps_final * tau
+
+
+def perturbation_tnr(K, x, prm):
+    """Perturbing acceleration (a_pt, a_pr, a_pn) in the orbital frame, nondimensional.
+
+    Spec 01-methods §1.7 steps 2–4: r, v from the MEE (Appendix B.1), e_r = r/r,
+    e_n = r×v/|r×v|, e_t = e_n×e_r; a_p from :func:`spaceopt.forces.perturbing_acceleration`
+    at r·DU and t_TDB = epoch + t·TU, scaled by TU²/DU.
+    """
+    from ..elements import mee_to_cartesian
+    from ..forces import perturbing_acceleration
+
+    g = geometry(K, x)
+    mee = jnp.stack([x[P], x[EX], x[EY], x[IX], x[IY], g["L"]])
+    r, v = mee_to_cartesian(mee, 1.0)
+    e_r = r / jnp.linalg.norm(r)
+    h = jnp.cross(r, v)
+    e_n = h / jnp.linalg.norm(h)
+    e_t = jnp.cross(e_n, e_r)
+    model = prm["pert"]
+    a = perturbing_acceleration(r * prm["du"], model.epoch + x[TIME] * prm["tu"], model)
+    a = a * prm["tu"] ** 2 / prm["du"]
+    return jnp.stack([a @ e_t, a @ e_r, a @ e_n])
+
+
+def h_pert(K, x, lam, prm, p_lk_shift=0.0):
+    """H_p = k1 k2 (A_t a_pt + A_r a_pr + A_n a_pn) (2.1.4); A₁ (shifted p_LK) for T_min."""
+    g = geometry(K, x)
+    return g["k1"] * g["k2"] * jnp.dot(primer(x, lam, g, p_lk_shift), perturbation_tnr(K, x, prm))

@@ -13,7 +13,8 @@ Unknowns z = (p_p, p_ex, p_ey, p_ix, p_iy, p_LK, [p_m], K_f, [T]):
 | OT    | 8 | + p_m(K_f)                       | (2.1.11)–(2.1.12) |
 | T_min | 9 | + p_m(K_f), Q(K_f) = p_T(K_f)/τ   | (2.3.10)          |
 
-(unperturbed, time-independent problems: p_t ≡ 0 and is not an unknown.) p_LK(0) is kept as an
+Unperturbed, time-independent problems have p_t ≡ 0 and do not carry it; perturbed problems add
+p_t(0) to the unknowns and p_t(K_f) = 0 to the residuals (time is free, §2.1). p_LK(0) is kept as an
 unknown rather than eliminated by the quadratic (2.1.13), which is invalid with smoothed δ.
 
 ∂f/∂z and ∂f/∂τ come from the sensitivities Φ propagated with the trajectory; the K_f column is
@@ -28,7 +29,7 @@ import jax
 import jax.numpy as jnp
 
 from . import hamiltonians as hm
-from .flow import Model, field, hamiltonian, propagate_with_sensitivities
+from .flow import Model, field, hamiltonian, params_at, propagate_with_sensitivities
 
 COSTATE_NAMES = ("p_p", "p_ex", "p_ey", "p_ix", "p_iy", "p_LK", "p_t", "p_m")
 
@@ -62,6 +63,8 @@ class Shooting:
         names = ["p_LK+H", "p", "e_x", "e_y", "i_x", "i_y", "L_f"]
         if hm.MASS in self.free_costates:
             names.append("p_m(K_f)")
+        if hm.TIME in self.free_costates:
+            names.append("p_t(K_f)")
         if self.has_thrust:
             names.append("p_T(K_f)/tau")
         return names
@@ -82,13 +85,15 @@ def terminal_residual(sh: Shooting, yf, Kf, prm):
     r = [yf[:5] - prm["xf"], jnp.atleast_1d(yf[hm.LK] + Kf - prm["Lf"])]
     if hm.MASS in sh.free_costates:
         r.append(jnp.atleast_1d(yf[n + hm.MASS]))
+    if hm.TIME in sh.free_costates:
+        r.append(jnp.atleast_1d(yf[n + hm.TIME]))
     if sh.has_thrust:
         r.append(jnp.atleast_1d(yf[n + hm.THRUST]))
     return jnp.concatenate(r)
 
 
 def transversality(sh: Shooting, z, tau, prm):
-    y0 = initial_state(sh, z, prm)
+    y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
     return y0[sh.model.n + hm.LK] + hamiltonian(sh.model, 0.0, y0, tau, prm)
 
 
@@ -98,21 +103,25 @@ def shoot(sh: Shooting, z, tau, prm):
     kf = sh.kf_index
     z_nokf = jnp.delete(z, kf, assume_unique_indices=True)
 
-    def y0_of(znk):
-        return initial_state(sh, jnp.insert(znk, kf, z[kf]), prm)
+    def y0_of(znk, t):
+        return initial_state(sh, jnp.insert(znk, kf, z[kf]), params_at(sh.model, prm, t))
 
-    y0 = y0_of(z_nokf)
-    Phi0 = jnp.concatenate([jax.jacfwd(y0_of)(z_nokf), jnp.zeros((y0.size, 1))], axis=1)
+    y0 = y0_of(z_nokf, tau)
+    dy0_dz, dy0_dtau = jax.jacfwd(y0_of, argnums=(0, 1))(z_nokf, tau)
+    Phi0 = jnp.concatenate([dy0_dz, dy0_dtau[:, None]], axis=1)
     yf, Phif, nsteps, ok = propagate_with_sensitivities(
         sh.model, y0, Phi0, z[kf], tau, prm, sh.rtol, sh.atol, sh.max_steps)
     gf = field(sh.model, z[kf], yf, tau, prm)
 
-    r_term = terminal_residual(sh, yf, z[kf], prm)
-    dr_dy, dr_dK = jax.jacfwd(lambda yy, kk: terminal_residual(sh, yy, kk, prm), argnums=(0, 1))(yf, z[kf])
+    def term(yy, kk, t):
+        return terminal_residual(sh, yy, kk, params_at(sh.model, prm, t))
+
+    r_term = term(yf, z[kf], tau)
+    dr_dy, dr_dK, dr_dtau = jax.jacfwd(term, argnums=(0, 1, 2))(yf, z[kf], tau)
     dyf_dz = jnp.insert(Phif[:, :-1], kf, gf, axis=1)
     J_term = dr_dy @ dyf_dz
     J_term = J_term.at[:, kf].add(dr_dK)
-    ftau_term = dr_dy @ Phif[:, -1]
+    ftau_term = dr_dy @ Phif[:, -1] + dr_dtau
 
     r0 = transversality(sh, z, tau, prm)
     dr0_dz, dr0_dtau = jax.jacfwd(lambda zz, tt: transversality(sh, zz, tt, prm), argnums=(0, 1))(z, tau)

@@ -53,6 +53,9 @@ class Transfer:
     mu: float = constants.MU_EARTH_THESIS
     eps_final: float = 1e-5
     eps_blend: float = 1e-2
+    perturbations: dict | None = None      # forces.build_model config; None = unperturbed
+    epoch_utc: str | None = None           # departure epoch (UTC), needed when perturbed
+    ephemeris: str | None = None           # ephemeris window artifact (JSON) for third bodies
 
     def __post_init__(self):
         self.initial.check("initial")
@@ -93,6 +96,16 @@ class Transfer:
     def delta_L(self):
         return 2.0 * math.pi * self.n_rev
 
+    @property
+    def perturbed(self) -> bool:
+        return bool(self.perturbations)
+
+    def perturbation_model(self):
+        from ..forces import build_model
+        if self.epoch_utc is None:
+            raise ConfigError("epoch_utc", None, "a perturbed transfer needs a departure epoch")
+        return build_model(self.perturbations, self.epoch_utc, self.ephemeris)
+
     def units(self):
         return {"length_m": self.du, "time_s": self.tu, "velocity_m_s": self.vu,
                 "mass_kg": self.m0, "force_N": self.force_unit, "mu_m3_s2": self.mu}
@@ -101,11 +114,15 @@ class Transfer:
         """Nondimensional problem data for the shooting maps (a pytree of float64 arrays)."""
         L0 = math.radians(self.L0_deg)
         T = self.thrust if thrust is None else thrust
-        return {k: jnp.asarray(v, dtype=jnp.float64) for k, v in {
+        prm = {k: jnp.asarray(v, dtype=jnp.float64) for k, v in {
             "x0": self.initial.mee5(self.du), "xf": self.final.mee5(self.du),
             "L0": L0, "Lf": L0 + self.delta_L, "c": self.c / self.vu,
             "thrust": (0.0 if T is None or math.isnan(T) else T) / self.force_unit,
-            "thrust_a": 0.0, "thrust_b": 0.0, "eps_final": self.eps_final, "eps_blend": self.eps_blend, "blend_ref": 1.0}.items()}
+            "eps_final": self.eps_final, "eps_blend": self.eps_blend, "blend_ref": 1.0,
+            "du": self.du, "tu": self.tu}.items()}
+        if self.perturbed:
+            prm["pert"] = self.perturbation_model()
+        return prm
 
     def as_dict(self):
         return asdict(self)
