@@ -2,7 +2,7 @@
 # continuation -> tables and figures (spec 02-multirev §3).
 from snakemake.utils import validate
 
-validate(config["multirev"], "config/schema/multirev.schema.yaml")
+validate(config["multirev"], "../../config/schema/multirev.schema.yaml")
 MR = config["multirev"]
 MRDIR = f"{RESULTS}/multirev"
 SOLVER_SRC = lib_sources("indirect", "elements", "artifacts", "studies/multirev", "studies/trajectory")
@@ -74,9 +74,15 @@ rule multirev_ot:
     script: "../scripts/multirev_solve.py"
 
 
+for _case in MR["run_cases"]:
+    if _case not in MR["cases"]:
+        raise ValueError(f"multirev.run_cases: unknown case {_case!r}")
+
+
 def mr_stage_jsons():
     out = {}
-    for case, cc in MR["cases"].items():
+    for case in MR["run_cases"]:
+        cc = MR["cases"][case]
         out[f"{case}_lp"] = f"{MRDIR}/{case}/lp.json"
         isps = cc["tmin_isp_s"]
         for isp in isps:
@@ -101,7 +107,8 @@ rule multirev_verify:
 
 
 def mr_verify_files():
-    return [p.replace(".json", ".verify.json") for k, p in mr_stage_jsons().items() if "_ot_" in p or "/ot_" in p]
+    ots = sorted({p for p in mr_stage_jsons().values() if "/ot_" in p})
+    return [p.replace(".json", ".verify.json") for p in ots]
 
 
 rule multirev_tables:
@@ -115,7 +122,7 @@ rule multirev_tables:
         verify=f"{MRDIR}/verification.csv",
         repro=f"{MRDIR}/reproduction.csv",
         section=f"{MRDIR}/paper_section.tex",
-    params: t413=MR["table_4_1_3"], isp=MR["spacecraft"]["isp_s"]
+    params: t413=MR["table_4_1_3"]
     log: f"{MRDIR}/logs/tables.log"
     benchmark: f"{MRDIR}/benchmarks/tables.tsv"
     script: "../scripts/multirev_tables.py"

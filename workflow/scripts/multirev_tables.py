@@ -16,7 +16,9 @@ def main(sm):
     mr.write_csv(sm.output.anchors, anchor_rows, ["case", "quantity", "value", "unit"])
     t413 = mr.table_4_1_3(stages, sm.params.t413["thrust_N"])
     mr.write_csv(sm.output.t413, t413, mr.T413_COLUMNS)
-    pub = compare.published_lookup(sm.input._pub)
+    t413_cfg = sm.params.t413
+    comparable = t413_cfg["case"] == t413_cfg["published_case"]
+    pub = compare.published_lookup(sm.input._pub) if comparable else {}
     Path(sm.output.t413_md).write_text(mr.table_4_1_3_markdown(t413, pub))
     Path(sm.output.t413_tex).write_text(mr.table_4_1_3_latex(t413))
     ver_rows = []
@@ -25,7 +27,7 @@ def main(sm):
         ver_rows.append({"artifact": v["artifact"], **v["verification"]})
     cols = list(ver_rows[0]) if ver_rows else ["artifact"]
     mr.write_csv(sm.output.verify, ver_rows, cols)
-    rows = mr.reproduction_rows(sm.input._pub, anchor_rows, t413)
+    rows = mr.reproduction_rows(sm.input._pub, anchor_rows, t413, comparable, stages)
     compare.write_rows(sm.output.repro, rows)
     Path(sm.output.section).write_text(mr.paper_section(rows, ver_rows))
 

@@ -19,6 +19,7 @@ import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
+from functools import partial
 
 import diffrax
 import jax
@@ -27,7 +28,7 @@ import numpy as np
 
 from . import hamiltonians as hm
 from .continuation import Continuation, ContinuationOptions
-from .flow import Model, field as flow_field, ot_params
+from .flow import Model, field as flow_field
 from .shooting import Shooting, initial_state, shoot
 from .transfer import Transfer
 
@@ -78,8 +79,8 @@ PATH_RTOL = 1e-9     # integration tolerance while following the path; the end p
 def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None):
     opt = options or ContinuationOptions()
     opt = ContinuationOptions(**{**opt.__dict__, "label": label})
-    path = dataclasses.replace(sh, rtol=max(sh.rtol, PATH_RTOL), atol=max(sh.atol, PATH_RTOL * 0.1))
-    cont = Continuation(lambda z, tau: shoot(path, jnp.asarray(z), tau, prm), opt,
+    rtol, atol = max(sh.rtol, PATH_RTOL), max(sh.atol, PATH_RTOL * 0.1)
+    cont = Continuation(lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm, rtol, atol), opt,
                         polish=lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm))
     t0 = time.perf_counter()
     z, _ = cont.run(z0)
@@ -185,35 +186,44 @@ def final_model(sol: Solution) -> Model:
 
 def dense(sol: Solution, samples_per_rev: int = 200):
     """Trajectory y(K) at τ = 1 on a uniform K grid: returns K [rad] and y (N × 2n)."""
-    sh = sol.shooting
-    model = final_model(sol)
-    y0 = initial_state(sh, jnp.asarray(sol.z), sol.prm)
+    y0 = initial_state(sol.shooting, jnp.asarray(sol.z), sol.prm)
     n = max(int(samples_per_rev * sol.transfer.n_rev), 200)
-    Ks = jnp.linspace(0.0, sol.K_f, n)
-    rhs = lambda K, y, args: flow_field(model, K, y, 1.0, sol.prm)
-    out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, sol.K_f, None, y0,
+    Ks, ys = _dense(final_model(sol), y0, sol.K_f, sol.prm, n, sol.shooting.max_steps)
+    return np.asarray(Ks), np.asarray(ys)
+
+
+@partial(jax.jit, static_argnums=(0, 4, 5))
+def _dense(model, y0, K_f, prm, n, max_steps):
+    Ks = jnp.linspace(0.0, K_f, n)
+    rhs = lambda K, y, args: flow_field(model, K, y, 1.0, args)
+    out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, K_f, None, y0, args=prm,
                               stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-13),
-                              saveat=diffrax.SaveAt(ts=Ks), max_steps=sh.max_steps)
-    return np.asarray(Ks), np.asarray(out.ys)
+                              saveat=diffrax.SaveAt(ts=Ks), max_steps=max_steps)
+    return Ks, out.ys
 
 
 def lp_integrals(sol: Solution) -> dict:
     """J_LP = ∫ k|A|² dK and V = ∫ k1 k2 |A| dK along the LP solution, plus Δt (SI)."""
     tr = sol.transfer
-    n = sol.shooting.model.n
     y0 = initial_state(sol.shooting, jnp.asarray(sol.z), sol.prm)
+    yf = np.asarray(_lp_integrals(y0, sol.K_f, sol.prm, sol.shooting.max_steps))
+    return {"J_LP_m2s3": float(yf[-2]) * tr.du**2 / tr.tu**3, "dv_m_s": float(yf[-1]) * tr.vu,
+            "tof_s": float(yf[hm.TIME]) * tr.tu}
+
+
+@partial(jax.jit, static_argnums=3)
+def _lp_integrals(y0, K_f, prm, max_steps):
+    n = hm.N_STATE
 
     def rhs(K, Y, args):
         y = Y[:-2]
         g = hm.geometry(K, y[:n])
         A = hm.primer(y[:n], y[n:], g)
-        return jnp.concatenate([flow_field(Model("lp"), K, y, 1.0, sol.prm),
+        return jnp.concatenate([flow_field(Model("lp"), K, y, 1.0, args),
                                 jnp.stack([g["k"] * jnp.dot(A, A), g["k1"] * g["k2"] * hm.safe_norm(A)])])
 
-    out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, sol.K_f, None,
-                              jnp.concatenate([y0, jnp.zeros(2)]),
+    out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, K_f, None,
+                              jnp.concatenate([y0, jnp.zeros(2)]), args=prm,
                               stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-13),
-                              max_steps=sol.shooting.max_steps)
-    yf = np.asarray(out.ys[-1])
-    return {"J_LP_m2s3": float(yf[-2]) * tr.du**2 / tr.tu**3, "dv_m_s": float(yf[-1]) * tr.vu,
-            "tof_s": float(yf[hm.TIME]) * tr.tu}
+                              max_steps=max_steps)
+    return out.ys[-1]

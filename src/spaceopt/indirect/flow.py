@@ -195,11 +195,3 @@ def propagate_with_sensitivities(model: Model, y0, Phi0, Kf, tau, prm, rtol, ato
     sol = _solve(rhs, (y0, Phi0), Kf, (tau, prm), rtol, atol, max_steps, diffrax.SaveAt(t1=True))
     yf, Phif = sol.ys[0][-1], sol.ys[1][-1]
     return yf, Phif, sol.stats["num_steps"], sol.result == diffrax.RESULTS.successful
-
-
-def propagate_dense(model: Model, y0, Kf, tau, prm, rtol, atol, max_steps, n_samples):
-    """Primal trajectory sampled on a uniform K grid (for artifacts and figures)."""
-    ts = jnp.linspace(0.0, Kf, n_samples)
-    rhs = lambda K, y, args: field(model, K, y, args[0], args[1])
-    sol = _solve(rhs, y0, Kf, (tau, prm), rtol, atol, max_steps, diffrax.SaveAt(ts=ts))
-    return ts, sol.ys, sol.result == diffrax.RESULTS.successful

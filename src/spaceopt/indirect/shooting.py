@@ -22,7 +22,7 @@ g(K_f) (one extra field evaluation), as in the dissertation §3.3. No finite dif
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field as dc_field
 from functools import partial
 
 import jax
@@ -39,8 +39,8 @@ class Shooting:
     """Static layout of one shooting problem (hashable: it keys the JIT cache)."""
     model: Model
     free_costates: tuple          # indices into λ that are unknowns
-    rtol: float = 1e-11
-    atol: float = 1e-12
+    rtol: float = dc_field(default=1e-11, compare=False)   # end-point tolerances; passed to
+    atol: float = dc_field(default=1e-12, compare=False)   # shoot() as traced values (no recompile)
     max_steps: int = 400_000
 
     @property
@@ -97,9 +97,17 @@ def transversality(sh: Shooting, z, tau, prm):
     return y0[sh.model.n + hm.LK] + hamiltonian(sh.model, 0.0, y0, tau, prm)
 
 
+def shoot(sh: Shooting, z, tau, prm, rtol=None, atol=None):
+    """Residual f(z, τ), ∂f/∂z, ∂f/∂τ, number of integration steps, success flag.
+
+    ``rtol``/``atol`` default to the Shooting's end-point tolerances; they are traced, so the
+    loose path tolerance and the tight end-point tolerance share one compiled function.
+    """
+    return _shoot(sh, z, tau, prm, sh.rtol if rtol is None else rtol, sh.atol if atol is None else atol)
+
+
 @partial(jax.jit, static_argnums=0)
-def shoot(sh: Shooting, z, tau, prm):
-    """Residual f(z, τ), ∂f/∂z, ∂f/∂τ, number of integration steps, success flag."""
+def _shoot(sh: Shooting, z, tau, prm, rtol, atol):
     kf = sh.kf_index
     z_nokf = jnp.delete(z, kf, assume_unique_indices=True)
 
@@ -110,7 +118,7 @@ def shoot(sh: Shooting, z, tau, prm):
     dy0_dz, dy0_dtau = jax.jacfwd(y0_of, argnums=(0, 1))(z_nokf, tau)
     Phi0 = jnp.concatenate([dy0_dz, dy0_dtau[:, None]], axis=1)
     yf, Phif, nsteps, ok = propagate_with_sensitivities(
-        sh.model, y0, Phi0, z[kf], tau, prm, sh.rtol, sh.atol, sh.max_steps)
+        sh.model, y0, Phi0, z[kf], tau, prm, rtol, atol, sh.max_steps)
     gf = field(sh.model, z[kf], yf, tau, prm)
 
     def term(yy, kk, t):

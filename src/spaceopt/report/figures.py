@@ -10,6 +10,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 matplotlib.rcParams["svg.hashsalt"] = "spaceopt"
 matplotlib.rcParams["pdf.compression"] = 6
+matplotlib.rcParams["pdf.fonttype"] = 42      # embed TrueType, not bitmap Type 3 fonts
 
 _METADATA = {
     ".png": {"Software": None},

@@ -26,10 +26,12 @@ def _projection(ax, smp, i, j, burn_color="k", coast_color="0.7", lw=0.6):
     r = smp["r_m"] / 1e3
     burn = smp["delta"] > 0.5
     for mask, col in ((~burn, coast_color), (burn, burn_color)):
+        mask = mask | np.roll(mask, 1)          # join each arc to the next sample: no gaps
         seg = np.where(mask, 1.0, np.nan)
         ax.plot(r[:, i] * seg, r[:, j] * seg, color=col, lw=lw)
     ax.plot(0, 0, "o", color="tab:blue", ms=3)
-    ax.set_aspect("equal")
+    if (i, j) == (0, 1):
+        ax.set_aspect("equal")          # out-of-plane views are stretched to show the z motion
     ax.set_xlabel("xyz"[i] + ", km")
     ax.set_ylabel("xyz"[j] + ", km")
 

@@ -56,6 +56,7 @@ def _fmt(v, digits):
 
 
 def table_4_1_3_markdown(rows, published: dict) -> str:
+    """Markdown Table 4.1.3 with the published cells of each row beside ours ({} to omit them)."""
     head = "| T, N | Δt_opt, d | m_f, kg | Δt_b, d | Δt_b/Δt_opt | S_min | S_max | published (Δt, m_f, Δt_b, S_min, S_max) |\n"
     head += "|---|---|---|---|---|---|---|---|\n"
     lines = []
@@ -81,13 +82,20 @@ def table_4_1_3_latex(rows) -> str:
     return "\n".join(out)
 
 
-def reproduction_rows(published_path, anchor_rows, t413_rows) -> list[dict]:
+def reproduction_rows(published_path, anchor_rows, t413_rows, t413_comparable=True,
+                      stage_files=None) -> list[dict]:
+    """Reproduction rows; Table 4.1.3 cells are joined only when the table was computed for the
+    published case (``table_4_1_3.published_case``), e.g. not in the quick profile. Initial
+    costates of every stage are joined too (``stage_files``)."""
     ours = {}
+    for key, path in (stage_files or {}).items():
+        for name, value in artifacts.read_json(path)["scalars"]["costates"].items():
+            ours[(key, name)] = value
     for r in anchor_rows:
         case = r["case"]
         # published case names: e2_tmin (one Isp) and e1_tmin_isp1520 / e1_tmin_isp1000
         ours[(case, r["quantity"])] = r["value"]
-    for i, r in enumerate(t413_rows):
+    for i, r in enumerate(t413_rows if t413_comparable else []):
         key = "t413_0.191718N" if i == 0 else f"t413_{r['thrust_N']:g}N"
         for q in T413_COLUMNS[1:]:
             if r[q] != "":

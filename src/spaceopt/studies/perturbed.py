@@ -1,0 +1,363 @@
+"""The perturbed multi-revolution studies of dissertation §4.2 (E5–E9) built from the config.
+
+Config: ``config/studies/perturbed.yaml`` (key ``perturbed``). A case names an initial and a
+final orbit (altitudes above the mean Earth radius, or ``a_km``/``e`` where the thesis gives
+them), L₀, the angular range, the spacecraft, the departure epoch (UTC), the ephemeris window
+and the perturbation models (``forces.build_model`` configs) it is solved with.
+
+Chain for every (case, model) (spec 02-multirev §2.6, no published costate as a guess):
+
+1. LP, unperturbed, from the zero guess (a coast on the initial orbit, K_f = ΔL);
+2. LP → OT by the homotopy (3.3.1), which also switches the perturbations on with τ
+   (H_p = k₁k₂ A·a_p, p_t an unknown when perturbed); then ε log-uniform to ε_f.
+
+Warm starts (allowed: neighbouring *solved* cases of the same chain):
+
+* E6 date → date and E9 model → model: a Newton homotopy f(z, τ) = (1 − τ) f(z_prev) at the
+  *new* problem data (``chain.continue_in_params`` with nothing to move; the epoch and the force
+  model are pytree data of ``prm['pert']``, so the new date costs no recompilation);
+* E8 n → n: ``chain.continue_in_params`` moving L_f.
+
+The ΔΩ budget of E9 (spec 02-multirev §6) is the secular J2 drift of the osculating initial
+orbit, dΩ/dt = −(3/2) n J₂ (R/p)² cos i, dω/dt = (3/4) n J₂ (R/p)² (5 cos² i − 1), compared
+with the required ΔΩ, plus a numerical coast with the J2 model of :mod:`spaceopt.forces` (the
+osculating Ω difference after the same time).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .. import artifacts, constants
+from ..elements import apsides_to_ae
+from ..errors import ConfigError
+from ..indirect import chain
+from ..indirect import hamiltonians as hm
+from ..indirect.chain import Solution
+from ..indirect.continuation import ContinuationOptions
+from ..indirect.flow import Model
+from ..indirect.shooting import Shooting
+from ..indirect.transfer import Orbit, Transfer
+from . import multirev
+
+DAY = 86400.0
+ALT_KEYS = ("perigee_alt_km", "apogee_alt_km")
+AE_KEYS = ("a_km", "e")
+ANGLE_KEYS = ("i_deg", "raan_deg", "argp_deg")
+CASE_KEYS = ("initial", "final", "L0_deg", "n_rev", "m0_kg", "isp_s", "thrust_N", "epoch_utc",
+             "ephemeris", "models")
+OPTIONAL_CASE_KEYS = ("lp_perturbed",)
+
+
+def _number(cfg, key, path, positive=False):
+    return multirev._number(cfg, key, path, positive=positive)
+
+
+def orbit_from_config(cfg, path, radius_m) -> Orbit:
+    """Orbit from altitudes above ``radius_m`` or from a_km, e (angles in degrees)."""
+    if not isinstance(cfg, dict):
+        raise ConfigError(path, cfg, "must be a mapping of orbit elements")
+    allowed = set(ALT_KEYS) | set(AE_KEYS) | set(ANGLE_KEYS)
+    unknown = sorted(set(cfg) - allowed)
+    if unknown:
+        raise ConfigError(f"{path}.{unknown[0]}", cfg[unknown[0]],
+                          f"unknown key (expected {', '.join(sorted(allowed))}; units in the key name)")
+    has_alt, has_ae = any(k in cfg for k in ALT_KEYS), any(k in cfg for k in AE_KEYS)
+    if has_alt == has_ae:
+        raise ConfigError(path, sorted(cfg), "give either perigee_alt_km/apogee_alt_km or a_km/e")
+    if has_alt:
+        return multirev.orbit_from_config(cfg, path, radius_m)
+    a = _number(cfg, "a_km", path, positive=True) * 1e3
+    e = _number(cfg, "e", path)
+    if not 0.0 <= e < 1.0:
+        raise ConfigError(f"{path}.e", e, "eccentricity must be in [0, 1)")
+    return Orbit(a, e, _number(cfg, "i_deg", path), cfg.get("raan_deg", 0.0), cfg.get("argp_deg", 0.0))
+
+
+def model_config(pc: dict, name: str):
+    models = pc.get("models", {})
+    if name not in models:
+        raise ConfigError("perturbed.models", name, f"unknown model (expected one of {sorted(models)})")
+    return models[name]
+
+
+def ephemeris_path(results_dir, window: str) -> str:
+    return str(Path(results_dir) / "ephemeris" / f"{window}.json")
+
+
+def transfer_from_config(pc: dict, case: str, model: str, *, ephemeris: str | None = None,
+                         epoch_utc: str | None = None, n_rev: float | None = None) -> Transfer:
+    """Build the Transfer of ``perturbed.cases.<case>`` under perturbation model ``model``."""
+    cases = pc.get("cases", {})
+    if case not in cases:
+        raise ConfigError("perturbed.cases", case, "unknown case")
+    cc, path = cases[case], f"perturbed.cases.{case}"
+    missing = [k for k in CASE_KEYS if k not in cc]
+    if missing:
+        raise ConfigError(f"{path}.{missing[0]}", None, "missing")
+    unknown = sorted(set(cc) - set(CASE_KEYS) - set(OPTIONAL_CASE_KEYS))
+    if unknown:
+        raise ConfigError(f"{path}.{unknown[0]}", cc[unknown[0]], "unknown key")
+    const = pc["constants"]
+    radius = _number(const, "earth_radius_km", "perturbed.constants", positive=True) * 1e3
+    mu = _number(const, "mu_km3_s2", "perturbed.constants", positive=True) * 1e9
+    orbits = pc.get("orbits", {})
+    for end in ("initial", "final"):
+        if cc[end] not in orbits:
+            raise ConfigError(f"{path}.{end}", cc[end], "unknown orbit name")
+    mcfg = model_config(pc, model)
+    num = pc["numerics"]
+    epoch = epoch_utc if epoch_utc is not None else cc["epoch_utc"]
+    if mcfg is not None and not isinstance(epoch, str):
+        raise ConfigError(f"{path}.epoch_utc", epoch, "expected a UTC date string 'YYYY-MM-DDTHH:MM:SS'")
+    needs_eph = bool(mcfg) and bool(mcfg.get("third_bodies"))
+    return Transfer(
+        orbit_from_config(orbits[cc["initial"]], f"perturbed.orbits.{cc['initial']}", radius),
+        orbit_from_config(orbits[cc["final"]], f"perturbed.orbits.{cc['final']}", radius),
+        L0_deg=_number(cc, "L0_deg", path),
+        n_rev=float(n_rev) if n_rev is not None else _number(cc, "n_rev", path, positive=True),
+        m0=_number(cc, "m0_kg", path, positive=True), isp=_number(cc, "isp_s", path, positive=True),
+        thrust=_number(cc, "thrust_N", path, positive=True), mu=mu,
+        eps_final=_number(num, "eps_final", "perturbed.numerics", positive=True),
+        eps_blend=_number(num, "eps_blend", "perturbed.numerics", positive=True),
+        perturbations=mcfg or None, epoch_utc=epoch if mcfg else None,
+        ephemeris=ephemeris if needs_eph else None)
+
+
+# ---------------------------------------------------------------- solves
+
+def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False,
+              options: ContinuationOptions | None = None) -> tuple[Solution, Solution]:
+    """LP from the zero guess → OT (perturbed when ``tr`` is); returns (lp, ot).
+
+    ``lp_perturbed``: solve the LP with the perturbations on (see :func:`solve_lp_perturbed`);
+    the LP → OT homotopy then starts off its path (its τ = 0 end is the unperturbed LP) and the
+    Newton homotopy carries the initial residual.
+    """
+    if lp_perturbed and tr.perturbed:
+        lp = solve_lp_perturbed(tr, options, label=f"{label}/lp")
+    else:
+        lp = chain.solve_lp(tr, options, label=f"{label}/lp")
+    ot = chain.solve_ot(lp, tr.thrust, options, label=f"{label}/ot")
+    return lp, ot
+
+
+def lp_shooting(perturbed: bool) -> Shooting:
+    """LP layout; the perturbed LP adds p_t to the unknowns (and p_t(K_f) = 0)."""
+    if not perturbed:
+        return chain.LP_SHOOTING
+    return Shooting(Model("lp", "lp", True), chain.ORBIT_COSTATES + (hm.TIME,))
+
+
+def solve_lp_perturbed(tr: Transfer, options=None, label="lp") -> Solution:
+    """Minimum-power solve *with* the perturbations, from the zero guess (K_f = ΔL).
+
+    Used where the transfer only exists thanks to a perturbation (E9: the node is moved by the
+    J2 precession, spec 02-multirev §6): the zero guess is then the perturbed coast, which
+    already drifts the node by almost the required ΔΩ, whereas the unperturbed LP must buy the
+    whole plane change with thrust (~1 km/s, beyond what 1 N delivers in 5 d).
+    """
+    sh = lp_shooting(tr.perturbed)
+    prm = tr.params()
+    z0 = np.zeros(sh.size)
+    z0[sh.kf_index] = tr.delta_L
+    z, stats = chain._run(sh, z0, prm, label, options)
+    sol = Solution("lp", sh, z, prm, tr, stats)
+    sol.extra.update(lp_integrals(sol))
+    return sol
+
+
+def lp_integrals(sol: Solution) -> dict:
+    """J_LP, ΔV and Δt (SI) along an LP solution, with the field the solution was solved with."""
+    import diffrax
+    import jax.numpy as jnp
+    from ..indirect.flow import field as flow_field
+    from ..indirect.shooting import initial_state
+
+    tr = sol.transfer
+    model = sol.shooting.model
+    n = model.n
+    y0 = initial_state(sol.shooting, jnp.asarray(sol.z), sol.prm)
+
+    def rhs(K, Y, args):
+        y = Y[:-2]
+        g = hm.geometry(K, y[:n])
+        A = hm.primer(y[:n], y[n:], g)
+        return jnp.concatenate([flow_field(model, K, y, 1.0, sol.prm),
+                                jnp.stack([g["k"] * jnp.dot(A, A), g["k1"] * g["k2"] * hm.safe_norm(A)])])
+
+    out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, sol.K_f, None,
+                              jnp.concatenate([y0, jnp.zeros(2)]),
+                              stepsize_controller=diffrax.PIDController(rtol=1e-11, atol=1e-12),
+                              max_steps=sol.shooting.max_steps)
+    yf = np.asarray(out.ys[-1])
+    return {"J_LP_m2s3": float(yf[-2]) * tr.du**2 / tr.tu**3, "dv_m_s": float(yf[-1]) * tr.vu,
+            "tof_s": float(yf[hm.TIME]) * tr.tu}
+
+
+def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None) -> Solution:
+    """From a converged OT solution to the problem of ``tr_to`` (new date, model or n_rev).
+
+    Same unknowns layout required (perturbed ↔ perturbed). Thrust, L₀, L_f, c move linearly in
+    τ; everything else (the epoch, the force model) is the new problem's from τ = 0 on, and the
+    Newton homotopy f(z, τ) = (1 − τ) b absorbs the initial residual b.
+    """
+    if tr_to.perturbed != sol.transfer.perturbed:
+        raise ConfigError("warm_start", tr_to.perturbations, "source and target must both be perturbed or both not")
+    prm_to = tr_to.params(thrust=sol.thrust_N)
+    out = chain.continue_in_params(sol, prm_to, options, label=label)
+    out.transfer, out.thrust_N = tr_to, sol.thrust_N
+    return out
+
+
+def load(json_path) -> Solution:
+    """Rebuild a converged (possibly perturbed) Solution from its JSON artifact."""
+    data = artifacts.read_json(json_path)
+    t = data["transfer"]
+    tr = Transfer(Orbit(**t["initial"]), Orbit(**t["final"]),
+                  **{k: v for k, v in t.items() if k not in ("initial", "final")})
+    m = data["model"]
+    free = tuple(m["free_costates"])
+    perturbed = hm.TIME in free
+    sh = Shooting(Model(m["kind"], m["homotopy"], perturbed), free)
+    thrust = data["thrust_N"]
+    nan = thrust is None or (isinstance(thrust, float) and math.isnan(thrust))
+    prm = tr.params(thrust=None if nan else thrust)
+    sol = Solution(data["scalars"]["stage"], sh, np.asarray(data["z"]), prm, tr, data["solver"],
+                   thrust_N=float("nan") if nan else thrust)
+    if sol.stage == "lp":
+        sol.extra.update({k: data["scalars"][k] for k in ("J_LP_m2s3", "dv_m_s")})
+        sol.extra["tof_s"] = data["scalars"]["tof_days"] * DAY
+    return sol
+
+
+def save(sol: Solution, json_path, cfg: dict, wall_time_s: float, extra: dict | None = None,
+         samples_per_rev: int = 200):
+    """Stage artifacts (JSON + NPZ + RRD) as in §4.1, plus the perturbation model and epoch."""
+    tr = sol.transfer
+    ex = {"perturbations": tr.perturbations, "epoch_utc": tr.epoch_utc, **(extra or {})}
+    if tr.perturbed:
+        ex["p_t0"] = float(sol.z[list(sol.shooting.free_costates).index(hm.TIME)])
+    return multirev.save(sol, json_path, cfg, wall_time_s, ex, samples_per_rev)
+
+
+def summary(payload: dict) -> dict:
+    """Table scalars of an OT artifact payload."""
+    s = payload["scalars"]
+    tr = payload["transfer"]
+    m_p = tr["m0"] - s["m_f_kg"]
+    return {"m_f_kg": s["m_f_kg"], "tof_days": s["tof_days"], "K_f_deg": s["K_f_deg"],
+            "propellant_kg": m_p, "dv_m_s": s["dv_m_s"], "burn_h": s["burn_days"] * 24.0,
+            "burn_fraction": s["burn_fraction"], "n_rev": tr["n_rev"]}
+
+
+# ---------------------------------------------------------------- E6 dates
+
+def scan_dates(e6: dict) -> list[str]:
+    """UTC epochs of the departure scan (``perturbed.e6``)."""
+    from datetime import date, timedelta
+    try:
+        d0 = date.fromisoformat(e6["first_date"])
+        d1 = date.fromisoformat(e6["last_date"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ConfigError("perturbed.e6.first_date/last_date", e6.get("first_date"), f"bad date ({exc})") from None
+    step = e6.get("step_days", 1)
+    if not isinstance(step, int) or step < 1:
+        raise ConfigError("perturbed.e6.step_days", step, "must be a positive integer")
+    if d1 < d0:
+        raise ConfigError("perturbed.e6.last_date", e6["last_date"], "before first_date")
+    out, d = [], d0
+    while d <= d1:
+        out.append(f"{d.isoformat()}T{e6.get('time_utc', '12:00:00')}")
+        d += timedelta(days=step)
+    return out
+
+
+def scan_order(dates: list[str], anchor: str) -> list[tuple[str, str]]:
+    """(date, warm-start source) pairs: outward from the anchor date, each from its neighbour."""
+    if anchor not in dates:
+        raise ConfigError("perturbed.e6", anchor, "the anchor epoch (the E5 date) must be one of the scan dates")
+    i = dates.index(anchor)
+    pairs = []
+    for j in range(i + 1, len(dates)):
+        pairs.append((dates[j], dates[j - 1]))
+    for j in range(i - 1, -1, -1):
+        pairs.append((dates[j], dates[j + 1]))
+    return pairs
+
+
+# ---------------------------------------------------------------- E9 ΔΩ budget
+
+def j2_secular_rates(orbit: Orbit, mu: float, j2: float, radius: float) -> dict:
+    """Secular J2 rates [deg/day] of Ω and ω for a Keplerian orbit (first order)."""
+    a, e, i = orbit.a, orbit.e, math.radians(orbit.i)
+    p = a * (1 - e * e)
+    n = math.sqrt(mu / a**3)
+    f = n * j2 * (radius / p) ** 2
+    return {"raan_deg_per_day": math.degrees(-1.5 * f * math.cos(i)) * DAY,
+            "argp_deg_per_day": math.degrees(0.75 * f * (5 * math.cos(i) ** 2 - 1)) * DAY,
+            "period_min": 2 * math.pi / n / 60.0}
+
+
+def raan_budget(tr: Transfer, days: float, tof_days: float | None = None) -> dict:
+    """Spec 02-multirev §6: natural J2 drift against the required ΔΩ (and ω drift against ω_f).
+
+    Two constant sets: the EGM96 J₂ with its GM and a_e (the forces module's J2 model), and the
+    same J₂ with the thesis central μ. ``tof_days`` (e.g. the solved J2-only Δt) adds the drift
+    over the actual transfer time.
+    """
+    from ..forces import load_egm96
+    egm = load_egm96()
+    d_raan = math.remainder(tr.final.raan - tr.initial.raan, 360.0)
+    d_argp = math.remainder(tr.final.argp - tr.initial.argp, 360.0)
+    out = {"required_draan_deg": d_raan, "required_dargp_deg": d_argp, "days": days,
+           "j2": egm["j2"], "radius_m": egm["radius"]}
+    for tag, mu in (("egm96_gm", egm["gm"]), ("central_mu", tr.mu)):
+        r = j2_secular_rates(tr.initial, mu, egm["j2"], egm["radius"])
+        out[tag] = {**r, "draan_deg": r["raan_deg_per_day"] * days, "dargp_deg": r["argp_deg_per_day"] * days}
+        if tof_days is not None:
+            out[tag]["draan_over_tof_deg"] = r["raan_deg_per_day"] * tof_days
+        # mean semi-major axis that would make the natural drift equal the requirement over `days`
+        # (Ω̇ ∝ a^(-7/2) at fixed e, i)
+        need = d_raan / days
+        out[tag]["a_for_required_drift_km"] = tr.initial.a * (r["raan_deg_per_day"] / need) ** (2 / 7) / 1e3
+    out["control_must_change_draan_by_deg"] = d_raan - out["egm96_gm"]["draan_deg"]
+    return out
+
+
+def raan_budget_numeric(tr: Transfer, days: float, epoch_utc: str, model_cfg) -> dict:
+    """Osculating Ω and ω after a free coast of ``days`` (Cartesian, DOP853) under ``model_cfg``."""
+    import jax
+    from scipy.integrate import solve_ivp
+    from ..elements import cartesian_to_mee, kepler_to_mee, mee_to_cartesian, mee_to_kepler
+    from ..forces import build_model, perturbing_acceleration
+
+    model = build_model(model_cfg, epoch_utc, tr.ephemeris)
+    o = tr.initial
+    nu0 = math.radians(tr.L0_deg - o.raan - o.argp)
+    mee = kepler_to_mee(o.a, o.e, math.radians(o.i), math.radians(o.raan), math.radians(o.argp), nu0)
+    r0, v0 = (np.asarray(v) for v in mee_to_cartesian(np.asarray(mee), tr.mu))
+    acc = jax.jit(lambda r, t: perturbing_acceleration(r, model.epoch + t, model))
+
+    def rhs(t, y):
+        r = y[:3]
+        a = -tr.mu * r / np.linalg.norm(r) ** 3 + np.asarray(acc(r, t))
+        return np.concatenate([y[3:], a])
+
+    sol = solve_ivp(rhs, (0.0, days * DAY), np.concatenate([r0, v0]), method="DOP853", rtol=1e-11, atol=1e-4)
+    kep0 = np.asarray(mee_to_kepler(cartesian_to_mee(r0, v0, tr.mu)))
+    kep1 = np.asarray(mee_to_kepler(cartesian_to_mee(sol.y[:3, -1], sol.y[3:, -1], tr.mu)))
+    return {"days": days, "model": model_cfg,
+            "draan_deg": math.degrees(math.remainder(kep1[3] - kep0[3], 2 * math.pi)),
+            "dargp_deg": math.degrees(math.remainder(kep1[4] - kep0[4], 2 * math.pi)),
+            "nfev": int(sol.nfev)}
+
+
+def timed(fn, *args, **kwargs):
+    t0 = time.perf_counter()
+    out = fn(*args, **kwargs)
+    return out, time.perf_counter() - t0
