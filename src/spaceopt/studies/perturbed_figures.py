@@ -1,0 +1,129 @@
+"""Figures of the perturbed §4.2 studies (spec 02-multirev §8: 4.2.1.x, 4.2.2.x, 4.2.3.x).
+
+Every figure is drawn from the NPZ samples of the OT artifacts (``artifacts.read_npz``): time,
+inertial position, throttle δ, switching function S, pitch/yaw and osculating elements.
+Burn arcs (δ > ½) are drawn thick/black, coasts thin/grey (perturbed coasts dashed).
+"""
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ..report.figures import save_figure  # noqa: E402
+
+DAY = 86400.0
+COLORS = {"unperturbed": "tab:blue", "j2": "tab:green", "g44": "tab:orange", "g44_moon_sun": "tab:red"}
+
+
+def _burn_segments(ax, x, y, burn, color, dashed=False, label=None):
+    ax.plot(x, y, color=color, lw=0.5, ls="--" if dashed else "-", alpha=0.6, label=label)
+    xb, yb = np.where(burn, x, np.nan), np.where(burn, y, np.nan)
+    ax.plot(xb, yb, color=color, lw=1.6)
+
+
+def projections(runs: dict, title: str, path, unit_km=1e3, dpi=150):
+    """Projections on the x-y, x-z, y-z planes (ICRS/J2000 axes) for {label: npz}."""
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.4))
+    for label, s in runs.items():
+        r = np.asarray(s["r_m"]) / unit_km / 1e3
+        burn = np.asarray(s["delta"]) > 0.5
+        for ax, (i, j) in zip(axes, ((0, 1), (0, 2), (1, 2))):
+            _burn_segments(ax, r[:, i], r[:, j], burn, COLORS.get(label, "k"), dashed=label != "unperturbed",
+                           label=label if ax is axes[0] else None)
+    for ax, (a, b) in zip(axes, (("x", "y"), ("x", "z"), ("y", "z"))):
+        ax.set_xlabel(f"{a}, 10³ km"); ax.set_ylabel(f"{b}, 10³ km"); ax.set_aspect("equal", "datalim")
+        ax.plot(0, 0, "o", color="k", ms=3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)
+
+
+def elements(runs: dict, title: str, path, keys=("a_m", "e", "i_deg", "raan_deg", "argp_deg")):
+    labels = {"a_m": "a, km", "e": "e", "i_deg": "i, deg", "raan_deg": "Ω, deg", "argp_deg": "ω, deg"}
+    fig, axes = plt.subplots(len(keys), 1, figsize=(8, 1.9 * len(keys)), sharex=True)
+    for label, s in runs.items():
+        t = np.asarray(s["t_s"]) / DAY
+        for ax, k in zip(axes, keys):
+            v = np.asarray(s[k]) / (1e3 if k == "a_m" else 1.0)
+            if k in ("raan_deg", "argp_deg"):
+                v = np.degrees(np.unwrap(np.radians(v)))
+            ax.plot(t, v, color=COLORS.get(label, "k"), lw=0.8, label=label)
+            ax.set_ylabel(labels[k])
+    axes[0].legend(fontsize=8)
+    axes[-1].set_xlabel("t, days")
+    fig.suptitle(title)
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)
+
+
+def controls(runs: dict, title: str, path, with_delta=False, with_elements=()):
+    rows = list(with_elements) + ["S", "pitch_deg", "yaw_deg"] + (["delta"] if with_delta else [])
+    names = {"S": "S", "pitch_deg": "pitch, deg", "yaw_deg": "yaw, deg", "delta": "δ",
+             "a_m": "a, km", "e": "e", "raan_deg": "Ω, deg"}
+    fig, axes = plt.subplots(len(rows), 1, figsize=(8, 1.7 * len(rows)), sharex=True)
+    for label, s in runs.items():
+        t = np.asarray(s["t_s"]) / DAY
+        for ax, k in zip(axes, rows):
+            v = np.asarray(s[k]) / (1e3 if k == "a_m" else 1.0)
+            ax.plot(t, v, color=COLORS.get(label, "k"), lw=0.6, label=label)
+            ax.set_ylabel(names[k])
+    axes[0].legend(fontsize=8)
+    axes[-1].set_xlabel("t, days")
+    fig.suptitle(title)
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)
+
+
+def date_scan(rows: list, path, title="E6: departure date scan, May 2021"):
+    pert = [r for r in rows if r["model"] != "unperturbed"]
+    unp = [r for r in rows if r["model"] == "unperturbed"]
+    day = [int(r["date"][8:10]) for r in pert]
+    fig, axes = plt.subplots(1, 2, figsize=(11, 3.8))
+    for ax, k, lab in ((axes[0], "m_f_kg", "m_f, kg"), (axes[1], "tof_days", "Δt, days")):
+        ax.plot(day, [r[k] for r in pert], "o-", color="tab:red", ms=3, label="perturbed")
+        if unp:
+            ax.axhline(unp[0][k], color="tab:blue", ls="--", label="unperturbed")
+        ax.set_xlabel("departure day, May 2021 (12:00 UTC)"); ax.set_ylabel(lab)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)
+
+
+def costates_vs_date(dates: list, costates: list, path, title="E6: initial costates vs departure date"):
+    names = sorted({k for c in costates for k in c})
+    fig, axes = plt.subplots(len(names), 1, figsize=(8, 1.4 * len(names)), sharex=True)
+    day = [int(d[8:10]) for d in dates]
+    for ax, n in zip(np.atleast_1d(axes), names):
+        ax.plot(day, [c.get(n, np.nan) for c in costates], "o-", ms=2)
+        ax.set_ylabel(n, fontsize=8)
+    np.atleast_1d(axes)[-1].set_xlabel("departure day, May 2021")
+    fig.suptitle(title)
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)
+
+
+def fuel_vs_revs(rows: list, path, title="E8: propellant vs revolutions and vs Δt"):
+    fig, axes = plt.subplots(1, 2, figsize=(11, 3.8))
+    for model in sorted({r["model"] for r in rows}):
+        rr = sorted((r for r in rows if r["model"] == model), key=lambda r: r["n_rev"])
+        c = COLORS.get(model, "k")
+        axes[0].plot([r["n_rev"] for r in rr], [r["propellant_kg"] for r in rr], "o-", color=c, label=model)
+        axes[1].plot([r["tof_days"] for r in rr], [r["propellant_kg"] for r in rr], "o-", color=c, label=model)
+    axes[0].set_xlabel("revolutions"); axes[1].set_xlabel("Δt, days")
+    for ax in axes:
+        ax.set_ylabel("m_p, kg")
+    axes[0].legend(fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)

@@ -1,0 +1,229 @@
+# Dissertation §4.2: perturbed multi-revolution transfers E5-E9 (spec 02-multirev §4-§6).
+#   results/perturbed/<case>/<model>.{json,npz,rrd}     E5, E7, E9 chain solves
+#   results/perturbed/e6/<date>.{json,npz,rrd}          E6 departure scan (warm start date to date)
+#   results/perturbed/e8/<model>_n<n>.{json,npz,rrd}    E8 (warm start n to n)
+#   results/perturbed/e9_budget.json                    ΔΩ budget check (spec §6)
+#   results/perturbed/{e5,e6_date_scan,e7,e8,e9}.csv, reproduction.csv, paper_section.tex, figures/
+from snakemake.utils import validate
+
+validate(config["perturbed"], "../../config/schema/perturbed.schema.yaml")
+PT = config["perturbed"]
+PTDIR = f"{RESULTS}/perturbed"
+PT_SRC = lib_sources("indirect", "elements", "forces", "ephemeris", "frames", "artifacts",
+                     "studies/perturbed", "studies/multirev", "studies/trajectory")
+
+
+def _pt_fmt(x):
+    return f"{float(x):g}"
+
+
+def pt_files(stem):
+    return [f"{PTDIR}/{stem}.{ext}" for ext in ("json", "npz", "rrd")]
+
+
+def pt_model_has_bodies(model):
+    m = PT["models"][model]
+    return bool(m) and bool(m.get("third_bodies"))
+
+
+def pt_ephemeris(case, model):
+    """The ephemeris window JSON a solve reads (only models with third bodies need one)."""
+    if not pt_model_has_bodies(model):
+        return []
+    return [f"{RESULTS}/ephemeris/{PT['cases'][case]['ephemeris']}.json"]
+
+
+def pt_config_for(case, model):
+    """Only what a (case, model) solve depends on."""
+    cc = PT["cases"][case]
+    return {"constants": PT["constants"], "numerics": PT["numerics"],
+            "models": {model: PT["models"][model]},
+            "orbits": {cc[k]: PT["orbits"][cc[k]] for k in ("initial", "final")},
+            "cases": {case: cc}}
+
+
+def pt_warm_source(case, model):
+    """E9 solves the J2 model by the chain; 4x4 and 4x4 + Moon + Sun by a warm start from the
+    previous model of the list (a Newton homotopy at the new force model)."""
+    models = PT["cases"][case]["models"]
+    if case != "e9" or model == models[0]:
+        return None
+    return models[models.index(model) - 1]
+
+
+def pt_solve_inputs(w):
+    src = pt_warm_source(w.case, w.model)
+    out = {"src": PT_SRC, "eph": pt_ephemeris(w.case, w.model)}
+    if src is not None:
+        out["start"] = f"{PTDIR}/{w.case}/{src}.json"
+    return out
+
+
+rule perturbed_solve:
+    input: unpack(pt_solve_inputs)
+    output: pt_files("{case}/{model}")
+    wildcard_constraints: case="e5|e7|e9"
+    params: cfg=lambda w: pt_config_for(w.case, w.model), case="{case}", model="{model}",
+            source=lambda w: pt_warm_source(w.case, w.model) or "chain", results=RESULTS
+    log: f"{PTDIR}/logs/{{case}}_{{model}}.log"
+    benchmark: f"{PTDIR}/benchmarks/{{case}}_{{model}}.tsv"
+    resources: mem_mb=4000, runtime=120
+    script: "../scripts/perturbed_solve.py"
+
+
+# ---------------------------------------------------------------- E6 departure scan
+
+E6 = PT["e6"]
+
+
+def pt_e6_dates():
+    from spaceopt.studies.perturbed import scan_dates
+    return [d[:10] for d in scan_dates(E6)]
+
+
+def pt_e6_source(date):
+    """The neighbouring date (towards the E5 anchor) this date warm-starts from."""
+    from spaceopt.studies.perturbed import scan_dates, scan_order
+    anchor = PT["cases"][E6["case"]]["epoch_utc"]
+    pairs = dict((d[:10], s[:10]) for d, s in scan_order(scan_dates(E6), anchor))
+    return pairs.get(date)
+
+
+def pt_e6_inputs(w):
+    src = pt_e6_source(w.date)
+    start = (f"{PTDIR}/{E6['case']}/{E6['model']}.json" if src is None else f"{PTDIR}/e6/{src}.json")
+    return {"start": start, "src": PT_SRC, "eph": pt_ephemeris(E6["case"], E6["model"])}
+
+
+rule perturbed_e6_date:
+    input: unpack(pt_e6_inputs)
+    output: pt_files("e6/{date}")
+    wildcard_constraints: date=r"\d{4}-\d{2}-\d{2}"
+    params: cfg=lambda w: pt_config_for(E6["case"], E6["model"]), case=E6["case"], model=E6["model"],
+            epoch=lambda w: f"{w.date}T{E6.get('time_utc', '12:00:00')}",
+            source=lambda w: pt_e6_source(w.date) or "e5", results=RESULTS
+    log: f"{PTDIR}/logs/e6_{{date}}.log"
+    benchmark: f"{PTDIR}/benchmarks/e6_{{date}}.tsv"
+    resources: mem_mb=4000, runtime=60
+    script: "../scripts/perturbed_solve.py"
+
+
+# ---------------------------------------------------------------- E8 revolution counts
+
+E8 = PT["e8"]
+
+
+def pt_e8_source(n):
+    """Each n continues from the next smaller n of the list; the smallest comes from the chain."""
+    ns = sorted(float(x) for x in E8["n_rev"])
+    n = float(n)
+    if n not in ns or ns.index(n) == 0:
+        return None
+    return _pt_fmt(ns[ns.index(n) - 1])
+
+
+def pt_e8_inputs(w):
+    src = pt_e8_source(w.n)
+    out = {"src": PT_SRC, "eph": pt_ephemeris("e8", w.model)}
+    if src is not None:
+        out["start"] = f"{PTDIR}/e8/{w.model}_n{src}.json"
+    return out
+
+
+rule perturbed_e8:
+    input: unpack(pt_e8_inputs)
+    output: pt_files("e8/{model}_n{n}")
+    wildcard_constraints: n=r"[0-9.]+"
+    params: cfg=lambda w: pt_config_for("e8", w.model), case="e8", model="{model}",
+            n_rev=lambda w: float(w.n), source=lambda w: pt_e8_source(w.n) or "chain", results=RESULTS
+    log: f"{PTDIR}/logs/e8_{{model}}_n{{n}}.log"
+    benchmark: f"{PTDIR}/benchmarks/e8_{{model}}_n{{n}}.tsv"
+    resources: mem_mb=4000, runtime=600
+    script: "../scripts/perturbed_solve.py"
+
+
+# ---------------------------------------------------------------- E9 ΔΩ budget
+
+rule perturbed_e9_budget:
+    input: src=lib_sources("studies/perturbed", "forces", "elements", "frames")
+    output: f"{PTDIR}/e9_budget.json"
+    params: cfg=lambda w: pt_config_for("e9", PT["cases"]["e9"]["models"][0]),
+            days=PT.get("e9_budget", {}).get("days", 5.0), model=PT["cases"]["e9"]["models"][0]
+    log: f"{PTDIR}/logs/e9_budget.log"
+    benchmark: f"{PTDIR}/benchmarks/e9_budget.tsv"
+    script: "../scripts/perturbed_budget.py"
+
+
+# ---------------------------------------------------------------- tables, figures, paper
+
+def pt_stage_jsons():
+    """{key: json} of every solve the run list asks for."""
+    out = {}
+    run = PT["run"]
+    for case in ("e5", "e7", "e9"):
+        if case in run:
+            for m in PT["cases"][case]["models"]:
+                out[f"{case}_{m}"] = f"{PTDIR}/{case}/{m}.json"
+    if "e6" in run:
+        out[f"e5_{E6['model']}"] = f"{PTDIR}/{E6['case']}/{E6['model']}.json"
+        for d in pt_e6_dates():
+            out[f"e6_{d}"] = f"{PTDIR}/e6/{d}.json"
+    if "e8" in run:
+        for m in PT["cases"]["e8"]["models"]:
+            for n in E8["run_n_rev"]:
+                out[f"e8_{m}_n{_pt_fmt(n)}"] = f"{PTDIR}/e8/{m}_n{_pt_fmt(n)}.json"
+    return out
+
+
+PT_TABLES = ["e5", "e6_date_scan", "e7", "e8", "e9"]
+
+rule perturbed_tables:
+    input: **pt_stage_jsons(), _budget=f"{PTDIR}/e9_budget.json",
+           _pub="config/published/yun2023_perturbed.yaml",
+           _src=lib_sources("report/compare", "studies/perturbed_report")
+    output:
+        **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},
+        repro=f"{PTDIR}/reproduction.csv",
+        md=f"{PTDIR}/tables.md",
+        tex=f"{PTDIR}/tables/perturbed.tex",
+    params: run=PT["run"], cases={c: {"models": PT["cases"][c]["models"]} for c in PT["cases"]},
+            e6=E6, e8_n=E8["run_n_rev"]
+    log: f"{PTDIR}/logs/tables.log"
+    benchmark: f"{PTDIR}/benchmarks/tables.tsv"
+    script: "../scripts/perturbed_tables.py"
+
+
+PT_FIGS = {"e5": ["fig_4_2_1_1", "fig_4_2_1_2", "fig_4_2_1_3"], "e6": ["fig_4_2_1_4", "fig_4_2_1_5"],
+           "e7": ["fig_4_2_1_6"], "e8": ["fig_4_2_2_1", "fig_4_2_2_3", "fig_4_2_2_5"],
+           "e9": ["fig_4_2_3_1", "fig_4_2_3_2"]}
+
+
+def pt_figure_names():
+    return [f for c in PT["run"] for f in PT_FIGS[c]]
+
+
+rule perturbed_figures:
+    input: **pt_stage_jsons(), _src=lib_sources("studies/perturbed_figures", "report/figures")
+    output: [f"{PTDIR}/figures/{f}.{ext}" for f in pt_figure_names() for ext in ("pdf", "png")]
+    params: run=PT["run"], cases={c: {"models": PT["cases"][c]["models"]} for c in PT["cases"]},
+            e6=E6, e8_n=E8["run_n_rev"], style=PT.get("figures", {})
+    log: f"{PTDIR}/logs/figures.log"
+    benchmark: f"{PTDIR}/benchmarks/figures.tsv"
+    script: "../scripts/perturbed_figures.py"
+
+
+rule perturbed_paper_section:
+    input: repro=f"{PTDIR}/reproduction.csv", tables=f"{PTDIR}/tables/perturbed.tex",
+           budget=f"{PTDIR}/e9_budget.json",
+           figures=[f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()],
+           **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},
+           _src=lib_sources("studies/perturbed_report")
+    output: f"{PTDIR}/paper_section.tex"
+    params: run=PT["run"], results=RESULTS
+    log: f"{PTDIR}/logs/paper_section.log"
+    script: "../scripts/perturbed_paper_section.py"
+
+
+ALL_TARGETS += [f"{PTDIR}/{t}.csv" for t in PT_TABLES] + [
+    f"{PTDIR}/reproduction.csv", f"{PTDIR}/paper_section.tex", f"{PTDIR}/e9_budget.json"] + [
+    f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()]

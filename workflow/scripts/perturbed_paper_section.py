@@ -1,0 +1,37 @@
+"""The perturbed study's paper fragment (results/perturbed/paper_section.tex) from its artifacts."""
+import csv
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _step import run_step  # noqa: E402
+
+from spaceopt import artifacts  # noqa: E402
+from spaceopt.studies import perturbed_report as R  # noqa: E402
+
+
+def _read(path):
+    with open(path) as fh:
+        rows = list(csv.DictReader(fh))
+    for r in rows:
+        for k, v in r.items():
+            try:
+                r[k] = float(v)
+            except (TypeError, ValueError):
+                pass
+    return rows
+
+
+def main(sm):
+    rows = _read(sm.input.repro)
+    budget = artifacts.read_json(sm.input.budget)["budget"]
+    e6 = _read(sm.input.e6_date_scan)
+    unp = next((r for r in e6 if r["model"] == "unperturbed"), None)
+    e6sum = R.e6_summary(e6, unp)
+    Path(sm.output[0]).write_text(R.paper_section(rows, {}, budget, e6sum, list(sm.input.figures)))
+
+
+if __name__ == "__main__":
+    with open(snakemake.log[0], "w") as log:  # noqa: F821
+        sys.stderr = log
+        run_step(main, snakemake)  # noqa: F821

@@ -1,0 +1,49 @@
+"""One perturbed §4.2 solve: a chain (LP -> OT) or a warm start from a neighbouring solved case
+(E6 date to date, E8 n to n, E9 model to model), with artifacts; failure.json on non-convergence."""
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _step import run_step  # noqa: E402
+
+from spaceopt import artifacts  # noqa: E402
+from spaceopt.errors import ConvergenceError  # noqa: E402
+from spaceopt.studies import perturbed as P  # noqa: E402
+
+
+def main(sm):
+    cfg, case, model = sm.params.cfg, sm.params.case, sm.params.model
+    out = Path(sm.output[0])
+    eph = P.ephemeris_path(sm.params.results, cfg["cases"][case]["ephemeris"])
+    kw = {"ephemeris": eph}
+    if sm.rule == "perturbed_e6_date":
+        kw["epoch_utc"] = sm.params.epoch
+    if sm.rule == "perturbed_e8":
+        kw["n_rev"] = sm.params.n_rev
+    tr = P.transfer_from_config(cfg, case, model, **kw)
+    label = f"{case}/{model}" + (f"/{kw['epoch_utc'][:10]}" if "epoch_utc" in kw else "") + \
+        (f"/n{kw['n_rev']:g}" if "n_rev" in kw else "")
+    t0 = time.perf_counter()
+    try:
+        if sm.params.source == "chain":
+            lp, sol = P.solve_for(tr, label, bool(cfg['cases'][case].get('lp_perturbed', False)))
+            extra = {"continued_from": "chain", "lp": {k: lp.extra[k] for k in ("J_LP_m2s3", "dv_m_s", "tof_s")},
+                     "lp_perturbed": lp.shooting.model.perturbed}
+        else:
+            start = P.load(sm.input.start)
+            sol = P.warm_start(start, tr, label)
+            extra = {"continued_from": str(sm.input.start)}
+    except ConvergenceError as exc:
+        failure = out.with_name(out.stem + ".failure.json")
+        artifacts.write_json(failure, {"error": str(exc), "diagnosis": exc.diagnosis,
+                                       "provenance": artifacts.provenance(cfg, time.perf_counter() - t0)})
+        raise
+    P.save(sol, out, cfg, time.perf_counter() - t0, extra,
+           samples_per_rev=cfg["numerics"]["samples_per_rev"])
+
+
+if __name__ == "__main__":
+    with open(snakemake.log[0], "w") as log:  # noqa: F821
+        sys.stderr = log
+        run_step(main, snakemake)  # noqa: F821
