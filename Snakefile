@@ -9,9 +9,20 @@ from snakemake.utils import min_version, validate
 
 min_version("9.0")
 
-configfile: "config/config.yaml"
-for _study_cfg in sorted(Path("config/studies").glob("*.yaml")):
-    configfile: str(_study_cfg)
+_CONFIG_FILES = ["config/config.yaml", *map(str, sorted(Path("config/studies").glob("*.yaml")))]
+# Malformed YAML in a project config file: one line naming the file and line, no traceback.
+import sys as _sys
+from spaceopt.config import load_yaml as _load_yaml
+from spaceopt.errors import ConfigError as _ConfigError
+for _f in _CONFIG_FILES:
+    try:
+        _load_yaml(_f)
+    except _ConfigError as _exc:
+        print(f"error: {_exc}", file=_sys.stderr)
+        _sys.exit(1)
+
+for _f in _CONFIG_FILES:
+    configfile: _f
 
 validate(config, "config/schema/config.schema.yaml")
 

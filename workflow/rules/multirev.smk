@@ -1,8 +1,8 @@
 # Dissertation §4.1: minimum-power solves -> minimum-thrust existence checks -> minimum-fuel
 # continuation -> tables and figures (spec 02-multirev §3).
-from snakemake.utils import validate
+from spaceopt.studies.multirev import check_config as _check_multirev
 
-validate(config["multirev"], "../../config/schema/multirev.schema.yaml")
+check_section("multirev", _check_multirev)
 MR = config["multirev"]
 MRDIR = f"{RESULTS}/multirev"
 SOLVER_SRC = lib_sources("indirect", "elements", "artifacts", "studies/multirev", "studies/trajectory")
@@ -72,11 +72,6 @@ rule multirev_ot:
     benchmark: f"{MRDIR}/benchmarks/{{case}}_ot_{{thrust}}N.tsv"
     resources: mem_mb=3000, runtime=120
     script: "../scripts/multirev_solve.py"
-
-
-for _case in MR["run_cases"]:
-    if _case not in MR["cases"]:
-        raise ValueError(f"multirev.run_cases: unknown case {_case!r}")
 
 
 def mr_stage_jsons():

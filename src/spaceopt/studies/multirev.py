@@ -80,6 +80,23 @@ def transfer_from_config(mr: dict, case: str, isp_s: float | None = None, thrust
                     eps_blend=_number(mr["numerics"], "eps_blend", "multirev.numerics", positive=True))
 
 
+def check_config(mr: dict) -> None:
+    """Physical checks of the multirev section: every case to run builds a valid Transfer."""
+    for i, case in enumerate(mr["run_cases"]):
+        if case not in mr["cases"]:
+            raise ConfigError(f"multirev.run_cases[{i}]", case, "unknown case")
+        cc = mr["cases"][case]
+        for isp in cc["tmin_isp_s"]:
+            transfer_from_config(mr, case, isp_s=isp)
+        for T in cc["ot_thrust_N"]:
+            transfer_from_config(mr, case, thrust_N=T)
+    t413 = mr["table_4_1_3"]
+    if t413["case"] not in mr["cases"]:
+        raise ConfigError("multirev.table_4_1_3.case", t413["case"], "unknown case")
+    if t413["anchor_N"] not in t413["thrust_N"]:
+        raise ConfigError("multirev.table_4_1_3.anchor_N", t413["anchor_N"], "must be one of thrust_N")
+
+
 # ---------------------------------------------------------------- scalars and artifacts
 
 def scalars(sol: Solution, samples: dict) -> dict:
