@@ -208,8 +208,41 @@ def _log(log, msg):
         print(msg, file=log, flush=True)
 
 
+def _substeps(sh, z_a, prm_a, prm_b, numerics, parts=2, depth=0):
+    """March from the data ``prm_a`` (solution ``z_a``) to ``prm_b`` in ``parts`` equal L₀ substeps,
+    each predicted along the tangent of the last evaluation; a substep whose Newton fails is split
+    again (down to ``max_bisections`` levels). Returns z, J, f_τ of the last substep and the work."""
+    tol, it = float(numerics["newton_tol"]), int(numerics["newton_max_iter"])
+    work = {"jacobian_evaluations": 0, "integration_steps_total": 0}
+    z, prm_prev, dz = np.asarray(z_a, float), prm_a, None
+    for k in range(1, parts + 1):
+        prm_k = {**prm_b, **{key: prm_a[key] + (prm_b[key] - prm_a[key]) * k / parts for key in ("L0", "Lf")}}
+        prm = path_params(prm_prev, prm_k)
+        if dz is None:
+            _, J0, f0, nst, _ = shoot(sh, jnp.asarray(z), 0.0, prm)
+            work["jacobian_evaluations"] += 1
+            work["integration_steps_total"] += int(nst)
+            dz = -np.linalg.solve(np.asarray(J0), np.asarray(f0))
+        try:
+            z, J, ftau, st = newton(sh, z + dz, prm, tol, it)
+        except NewtonFailure as exc:
+            st = exc.args[1]
+            if depth + 1 >= int(numerics.get("max_bisections", 3)):
+                raise
+            work["jacobian_evaluations"] += st["jacobian_evaluations"]
+            z, J, ftau, st = _substeps(sh, z, prm_prev, prm_k, numerics, 2, depth + 1)
+            ftau = ftau * 2          # the last sub-substep covered half of this substep
+        for key in work:
+            work[key] += st[key]
+        prm_prev = prm_k
+        dz = -np.linalg.solve(J, ftau)
+    work["final_residual"] = st.get("final_residual", float("nan"))
+    return z, J, ftau, work
+
+
 def _newton_or_fallback(tr, sh, z_pred, prm, prev_cell, numerics, log, label):
-    """Newton from ``z_pred``; else continuation from the previous cell of the row; else cold."""
+    """Newton from ``z_pred``; else substeps (march rows) or continuation from the previous cell
+    of the row; else the cold chain."""
     tol, it = float(numerics["newton_tol"]), int(numerics["newton_max_iter"])
     try:
         z, J, ftau, st = newton(sh, z_pred, prm, tol, it)
@@ -218,6 +251,15 @@ def _newton_or_fallback(tr, sh, z_pred, prm, prev_cell, numerics, log, label):
         reason, st0 = exc.args
         _log(log, f"[{label}] Newton failed ({reason}); falling back")
     spent = st0["jacobian_evaluations"]
+    if prev_cell is not None and prev_cell[1]["L0"] != prm["L0"]:
+        z_prev, prm_prev = prev_cell
+        try:
+            z, J, ftau, st = _substeps(sh, z_prev, prm_prev, {k: v for k, v in prm.items()
+                                                              if not k.startswith("path_")}, numerics)
+            st["jacobian_evaluations"] += spent
+            return z, J, ftau * 2, st, "march-substeps"
+        except NewtonFailure:
+            _log(log, f"[{label}] substeps failed; continuation")
     if prev_cell is not None:
         z_prev, prm_prev = prev_cell
         try:
@@ -249,6 +291,7 @@ def solve_row(mr: dict, sw: dict, n_rev: float, sources: dict | None = None, log
     cells = []
     prev = None                 # (z, prm, tangent per rad, step) of the previous cell
     tangent_prev = None
+    scale_err = None            # z − scaled prediction at the previous cell (scale rows)
     for L0 in grid:
         t0 = time.perf_counter()
         tr = cell_transfer(mr, sw, L0, n_rev)
@@ -264,10 +307,13 @@ def solve_row(mr: dict, sw: dict, n_rev: float, sources: dict | None = None, log
                                       f"row {n_src} has no cell at L0={L0:g} deg")
                 src.append((float(n_src), np.asarray(zs)))
             prm = path_params(tr.params(), tr.params())
-            z_pred = scale_prediction(n_rev, src, sh.kf_index)
+            z_scaled = scale_prediction(n_rev, src, sh.kf_index)
+            # the scaling error varies slowly with L0: correct by the previous cell's error
+            z_pred = z_scaled if scale_err is None else z_scaled + scale_err
             z, J, ftau, st, fb = _newton_or_fallback(
                 tr, sh, z_pred, prm, None if prev is None else prev[:2], numerics, log, label)
             method = fb or "scale"
+            scale_err = np.asarray(z) - z_scaled
         elif prev is None:
             z_c, st_c = cold_cell(tr, ContinuationOptions(verbose=False), label=label)
             prm = path_params(tr.params(), tr.params())
