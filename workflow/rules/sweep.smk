@@ -107,7 +107,7 @@ rule sweep_tables:
 rule sweep_figures:
     input: rows=[sw_row_json(n) for n in SW_ROWS], src=lib_sources("studies/sweep_figures", "studies/sweep_report", "report/figures")
     output: directory(f"{SW_MRDIR}/sweep_figures")
-    params: style=SW.get("figures", {})
+    params: style=SW.get("figures", {}), table_L0=SW["table_L0_deg"]
     log: f"{SWDIR}/logs/figures.log"
     benchmark: f"{SWDIR}/benchmarks/figures.tsv"
     script: "../scripts/sweep_figures.py"

@@ -11,7 +11,7 @@ from spaceopt.studies import sweep_figures  # noqa: E402
 
 def main(sm):
     rows = [artifacts.read_json(p)["cells"] for p in sm.input.rows]
-    sweep_figures.make_all(rows, Path(sm.output[0]), sm.params.style)
+    sweep_figures.make_all(rows, Path(sm.output[0]), sm.params.table_L0, sm.params.style)
 
 
 if __name__ == "__main__":

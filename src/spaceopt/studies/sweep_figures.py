@@ -2,7 +2,8 @@
 
 * ``mean_vs_n``: the L₀-averaged T̃_min and Δt̃ against n (log-log), with the hyperbolic law
   n·T̃_min = const and Δt̃ ∝ n through the largest n.
-* ``dev_T_vs_L0`` / ``dev_dt_vs_L0``: δT_min(L₀) and δΔt(L₀) in % of the row mean, one curve per n.
+* ``dev_T_vs_L0`` / ``dev_dt_vs_L0``: δT_min(L₀) and δΔt(L₀) in % of the row mean (the mean over
+  the printed L₀, :func:`spaceopt.studies.sweep_report.row_stats`), one curve per n.
 * ``T_vs_L0``: T_min(L₀) of each row normalised by its mean (fine rows every ``fine_step_deg``).
 """
 from __future__ import annotations
@@ -16,13 +17,13 @@ from ..report.figures import save_figure
 from .sweep_report import all_cells, grid, row_stats
 
 
-def make_all(rows, outdir: Path, style: dict | None = None) -> list[Path]:
+def make_all(rows, outdir: Path, table_L0, style: dict | None = None) -> list[Path]:
     style = style or {}
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     g = grid(all_cells(rows))
     ns = sorted(g)
-    st = {n: row_stats(g[n]) for n in ns}
+    st = {n: row_stats(g[n], table_L0) for n in ns}
     written = []
 
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(9, 3.6))
@@ -51,6 +52,9 @@ def make_all(rows, outdir: Path, style: dict | None = None) -> list[Path]:
             ax = axes[0] if n <= 20 else axes[1]
             ax.plot(st[n]["L0"], st[n][key], "o-" if not st[n]["uniform"] else ".-", ms=3, label=f"{n:g} rev")
         for ax in axes:
+            if not ax.lines:
+                ax.set_visible(False)
+                continue
             ax.axhline(0, color="k", lw=0.5)
             ax.set_xlabel(r"$L_0$, deg")
             ax.set_ylabel(ylabel)
