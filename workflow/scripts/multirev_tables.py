@@ -29,7 +29,6 @@ def main(sm):
     mr.write_csv(sm.output.verify, ver_rows, cols)
     rows = mr.reproduction_rows(sm.input._pub, anchor_rows, t413, comparable, stages)
     compare.write_rows(sm.output.repro, rows)
-    Path(sm.output.section).write_text(mr.paper_section(rows, ver_rows))
 
 
 if __name__ == "__main__":
