@@ -1,0 +1,46 @@
+"""The `spaceopt solve` command: verdict when no transfer exists, diagnosis on non-convergence."""
+import json
+
+import pytest
+
+from spaceopt import cli
+from spaceopt.errors import ConvergenceError
+from spaceopt.indirect import chain
+from spaceopt.indirect.continuation import ContinuationOptions
+
+E1 = ["solve", "--initial", "a_km=36621,e=0.812375413,i_deg=7,argp_deg=178", "--final", "a_km=42164,e=0,i_deg=0",
+      "--m0-kg", "1000", "--isp-s", "1520", "--n-rev", "2", "--l0-deg", "300", "--quiet"]
+
+
+def test_thrust_below_tmin_gives_a_verdict_not_an_error(tmp_path, capsys):
+    rc = cli.main(E1 + ["--thrust-n", "5", "--out", str(tmp_path)])
+    out = capsys.readouterr().out
+    assert rc == 0
+    assert "no transfer over 2 revolutions" in out and "T_min = 7.85384" in out
+    verdict = json.loads((tmp_path / "verdict.json").read_text())["verdict"]
+    assert verdict["exists"] is False and abs(verdict["n_rev_needed_estimate"] - 2 * verdict["T_min_N"] / 5) < 1e-12
+    assert (tmp_path / "lp.json").exists() and (tmp_path / "tmin.json").exists()
+    assert not (tmp_path / "ot.json").exists()
+
+
+def test_non_convergence_writes_a_diagnosis_and_exits_2(tmp_path, capsys, monkeypatch):
+    original = chain.solve_lp
+
+    def starved(tr, options=None, label="lp"):
+        return original(tr, ContinuationOptions(max_steps=1, verbose=False), label)
+
+    monkeypatch.setattr(chain, "solve_lp", starved)
+    rc = cli.main(E1 + ["--thrust-n", "15", "--out", str(tmp_path)])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2
+    assert len(err.splitlines()) == 1 and "continuation failed" in err
+    diag = json.loads((tmp_path / "failure.json").read_text())["diagnosis"]
+    assert diag["reason"] == "too many continuation steps" and "jacobian_evaluations" in diag
+
+
+def test_convergence_error_carries_the_path_history():
+    from spaceopt.indirect.transfer import Orbit, Transfer
+    tr = Transfer(Orbit(36621e3, 0.812375413, 7, 0, 178), Orbit(42164e3, 0, 0), 300, 2, 1000, 1520)
+    with pytest.raises(ConvergenceError) as info:
+        chain.solve_lp(tr, ContinuationOptions(h_init=0.5, h_max=0.5, h_min=0.4, max_corrector=1, verbose=False))
+    assert info.value.diagnosis["tau"] < 1.0
