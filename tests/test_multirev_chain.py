@@ -104,3 +104,16 @@ def test_lp_costates_match_the_published_normalisation(e1):
     assert all(status[q] == "pass" for q in ("p_p", "p_ex", "p_ey", "p_ix", "p_iy")), mine
     # the printed p_LK violates the transversality condition (erratum, spec 02 §10.1)
     assert status["p_LK"] == "fail"
+
+
+def test_fixed_time_lp_at_the_free_optimum_has_zero_p_t(e1):
+    """Fixed transfer time (1.1.11): with t_f equal to the free-time optimum the solution is the
+    same and p_t(0) = 0 — the free-time transversality condition is then satisfied."""
+    import dataclasses
+    free = e1["lp"]
+    tr = dataclasses.replace(free.transfer, tof_s=free.extra["tof_s"])
+    fixed = chain.solve_lp(tr)
+    c_free, c_fixed = free.costates(), fixed.costates()
+    assert abs(c_fixed["p_t"]) < 1e-9
+    for k in ("p_p", "p_ex", "p_ey", "p_ix", "p_iy", "p_LK"):
+        assert math.isclose(c_fixed[k], c_free[k], rel_tol=1e-7, abs_tol=1e-12), k

@@ -33,13 +33,21 @@ from .shooting import Shooting, initial_state, shoot
 from .transfer import Transfer
 
 ORBIT_COSTATES = (hm.P, hm.EX, hm.EY, hm.IX, hm.IY, hm.LK)
-LP_SHOOTING = Shooting(Model("lp"), ORBIT_COSTATES)
+LP_SHOOTING = Shooting(Model("lp"), ORBIT_COSTATES)     # free-time LP layout
 
 
-def shooting_for(kind: str, homotopy: str, perturbed: bool) -> Shooting:
-    """OT / T_min shooting layout; perturbed problems add p_t to the unknowns."""
-    free = ORBIT_COSTATES + ((hm.TIME,) if perturbed else ()) + (hm.MASS,)
-    return Shooting(Model(kind, homotopy, perturbed), free)
+def lp_shooting(tr: Transfer) -> Shooting:
+    """Unperturbed LP layout; with a fixed time of flight p_t joins the unknowns."""
+    if tr.tof_s is None:
+        return LP_SHOOTING
+    return Shooting(Model("lp"), ORBIT_COSTATES + (hm.TIME,), fixed_time=True)
+
+
+def shooting_for(kind: str, homotopy: str, tr: Transfer) -> Shooting:
+    """OT / T_min layout; perturbed or fixed-time problems add p_t to the unknowns."""
+    fixed = tr.tof_s is not None
+    free = ORBIT_COSTATES + ((hm.TIME,) if (tr.perturbed or fixed) else ()) + (hm.MASS,)
+    return Shooting(Model(kind, homotopy, tr.perturbed), free, fixed_time=fixed)
 
 
 def start_vector(sh: Shooting, costates: dict, K_f: float, thrust=None) -> np.ndarray:
@@ -92,10 +100,11 @@ def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None):
 def solve_lp(tr: Transfer, options=None, label="lp") -> Solution:
     """Minimum-power solve from the zero guess with K_f = ΔL."""
     prm = tr.params()
-    z0 = np.zeros(LP_SHOOTING.size)
-    z0[LP_SHOOTING.kf_index] = tr.delta_L
-    z, stats = _run(LP_SHOOTING, z0, prm, label, options)
-    sol = Solution("lp", LP_SHOOTING, z, prm, tr, stats)
+    sh = lp_shooting(tr)
+    z0 = np.zeros(sh.size)
+    z0[sh.kf_index] = tr.delta_L
+    z, stats = _run(sh, z0, prm, label, options)
+    sol = Solution("lp", sh, z, prm, tr, stats)
     sol.extra.update(lp_integrals(sol))
     return sol
 
@@ -117,7 +126,7 @@ def solve_tmin(lp: Solution, options=None, label="tmin") -> Solution:
     tr = lp.transfer
     prm = {**tr.params(), "blend_ref": jnp.asarray(blend_reference(lp))}
     T0 = tmin_initial_guess(lp) / tr.force_unit
-    sh = shooting_for("tmin", "lp", tr.perturbed)
+    sh = shooting_for("tmin", "lp", tr)
     z, stats = _run(sh, start_vector(sh, lp.doubled_costates(), lp.K_f, T0), prm, label, options)
     sol = Solution("tmin", sh, z, prm, tr, stats)
     sol.thrust_N = float(z[-1]) * tr.force_unit
@@ -142,9 +151,9 @@ def solve_ot(lp: Solution, thrust_N: float, options=None, label="ot") -> Solutio
     """LP → OT homotopy (3.3.1) at thrust T."""
     tr = lp.transfer
     prm = {**tr.params(thrust=thrust_N), "blend_ref": jnp.asarray(blend_reference(lp))}
-    sh = shooting_for("ot", "lp", tr.perturbed)
+    sh = shooting_for("ot", "lp", tr)
     z, stats = _run(sh, start_vector(sh, lp.doubled_costates(), lp.K_f), prm, label + " LP->OT", options)
-    sh_eps = shooting_for("ot", "eps", tr.perturbed)
+    sh_eps = shooting_for("ot", "eps", tr)
     if tr.eps_blend > tr.eps_final:
         z, stats_eps = _run(sh_eps, z, prm, label + " eps", options)
         stats = {"lp_to_ot": stats, "eps": stats_eps,

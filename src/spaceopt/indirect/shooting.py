@@ -14,7 +14,8 @@ Unknowns z = (p_p, p_ex, p_ey, p_ix, p_iy, p_LK, [p_m], K_f, [T]):
 | T_min | 9 | + p_m(K_f), Q(K_f) = p_T(K_f)/τ   | (2.3.10)          |
 
 Unperturbed, time-independent problems have p_t ≡ 0 and do not carry it; perturbed problems add
-p_t(0) to the unknowns and p_t(K_f) = 0 to the residuals (time is free, §2.1). p_LK(0) is kept as an
+p_t(0) to the unknowns and p_t(K_f) = 0 to the residuals (time is free, §2.1). With a fixed
+transfer time (1.1.11) p_t(0) is an unknown and t(K_f) = t_f replaces p_t(K_f) = 0. p_LK(0) is kept as an
 unknown rather than eliminated by the quadratic (2.1.13), which is invalid with smoothed δ.
 
 ∂f/∂z and ∂f/∂τ come from the sensitivities Φ propagated with the trajectory; the K_f column is
@@ -42,6 +43,7 @@ class Shooting:
     rtol: float = dc_field(default=1e-11, compare=False)   # end-point tolerances; passed to
     atol: float = dc_field(default=1e-12, compare=False)   # shoot() as traced values (no recompile)
     max_steps: int = 400_000
+    fixed_time: bool = False      # t(K_f) = t_f (1.1.11) replaces p_t(K_f) = 0; p_t is then an unknown
 
     @property
     def has_thrust(self) -> bool:
@@ -64,7 +66,7 @@ class Shooting:
         if hm.MASS in self.free_costates:
             names.append("p_m(K_f)")
         if hm.TIME in self.free_costates:
-            names.append("p_t(K_f)")
+            names.append("t(K_f)-t_f" if self.fixed_time else "p_t(K_f)")
         if self.has_thrust:
             names.append("p_T(K_f)/tau")
         return names
@@ -86,7 +88,7 @@ def terminal_residual(sh: Shooting, yf, Kf, prm):
     if hm.MASS in sh.free_costates:
         r.append(jnp.atleast_1d(yf[n + hm.MASS]))
     if hm.TIME in sh.free_costates:
-        r.append(jnp.atleast_1d(yf[n + hm.TIME]))
+        r.append(jnp.atleast_1d(yf[hm.TIME] - prm["tf"] if sh.fixed_time else yf[n + hm.TIME]))
     if sh.has_thrust:
         r.append(jnp.atleast_1d(yf[n + hm.THRUST]))
     return jnp.concatenate(r)

@@ -56,6 +56,7 @@ class Transfer:
     perturbations: dict | None = None      # forces.build_model config; None = unperturbed
     epoch_utc: str | None = None           # departure epoch (UTC), needed when perturbed
     ephemeris: str | None = None           # ephemeris window artifact (JSON) for third bodies
+    tof_s: float | None = None             # fixed time of flight (1.1.11); None = free (optimal) time
 
     def __post_init__(self):
         self.initial.check("initial")
@@ -67,6 +68,8 @@ class Transfer:
             raise ConfigError("thrust", self.thrust, "must be a positive force in newtons")
         if not (0 < self.eps_final < 1):
             raise ConfigError("eps_final", self.eps_final, "smoothing end value must be in (0, 1)")
+        if self.tof_s is not None and not (math.isfinite(self.tof_s) and self.tof_s > 0):
+            raise ConfigError("tof_s", self.tof_s, "a fixed time of flight must be a positive number of seconds")
         if not (self.eps_final <= self.eps_blend <= 1):
             raise ConfigError("eps_blend", self.eps_blend, "must lie in [eps_final, 1]")
 
@@ -119,7 +122,8 @@ class Transfer:
             "L0": L0, "Lf": L0 + self.delta_L, "c": self.c / self.vu,
             "thrust": (0.0 if T is None or math.isnan(T) else T) / self.force_unit,
             "eps_final": self.eps_final, "eps_blend": self.eps_blend, "blend_ref": 1.0,
-            "du": self.du, "tu": self.tu}.items()}
+            "du": self.du, "tu": self.tu,
+            "tf": (self.tof_s or 0.0) / self.tu}.items()}
         if self.perturbed:
             prm["pert"] = self.perturbation_model()
         return prm

@@ -139,6 +139,7 @@ def save(sol: Solution, json_path, cfg: dict, wall_time_s: float, extra: dict | 
         "scalars": scalars(sol, smp), "extra": extra or {}, "solver": sol.stats,
         "z": np.asarray(sol.z).tolist(), "unknowns": sol.shooting.unknown_names(),
         "model": {"kind": sol.shooting.model.kind, "homotopy": sol.shooting.model.homotopy,
+                  "perturbed": sol.shooting.model.perturbed, "fixed_time": sol.shooting.fixed_time,
                   "free_costates": list(sol.shooting.free_costates)},
         "transfer": sol.transfer.as_dict(), "thrust_N": sol.thrust_N, "units": sol.transfer.units(),
         "provenance": artifacts.provenance(cfg, wall_time_s),
@@ -154,7 +155,8 @@ def load(json_path) -> Solution:
     tr = Transfer(Orbit(**t["initial"]), Orbit(**t["final"]),
                   **{k: v for k, v in t.items() if k not in ("initial", "final")})
     m = data["model"]
-    sh = Shooting(Model(m["kind"], m["homotopy"]), tuple(m["free_costates"]))
+    sh = Shooting(Model(m["kind"], m["homotopy"], m.get("perturbed", False)), tuple(m["free_costates"]),
+                  fixed_time=m.get("fixed_time", False))
     thrust = data["thrust_N"]
     prm = tr.params(thrust=None if thrust is None or (isinstance(thrust, float) and math.isnan(thrust)) else thrust)
     sol = Solution(data["scalars"]["stage"], sh, np.asarray(data["z"]), prm, tr, data["solver"],
