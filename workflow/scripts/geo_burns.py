@@ -4,7 +4,6 @@ Snakemake script: params.cfg (the geo_burns config section), params.rel_publishe
 of the published file); input.published; output: csv, grid, sensitivity, json, switching (npz),
 reproduction, figures dir. All physics in spaceopt.discrete.geo_burns.
 """
-import csv
 import sys
 import time
 from contextlib import redirect_stderr
@@ -15,20 +14,11 @@ from _step import run_step  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from spaceopt.report.tables import write_csv  # noqa: E402
 from spaceopt.artifacts import provenance, write_json, write_npz  # noqa: E402
 from spaceopt.discrete import geo_burns as gb  # noqa: E402
 from spaceopt.report.compare import COLUMNS, compare, published_lookup, write_rows  # noqa: E402
 from spaceopt.report.figures import save_figure  # noqa: E402
-
-
-def _write_csv(path, rows, columns):
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=columns, lineterminator="\n", extrasaction="ignore")
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: (repr(float(v)) if isinstance(v, (float, np.floating)) else v)
-                        for k, v in r.items()})
 
 
 def main(sm):
@@ -41,11 +31,11 @@ def main(sm):
     res = gb.run_study(cfg, published_counts=counts)
     recs, schemes = res["records"], res["schemes"]
     order = ["classical", "start_penalised", "flown", "classical_published_counts"]
-    _write_csv(sm.output.csv, [gb.csv_row(recs[n]) for n in order], gb.GEO_CSV_COLUMNS)
-    _write_csv(sm.output.grid, res["grid"], ["n_p", "n_a", "time_s", "fuel_kg", "terminal_penalty_kg",
+    write_csv(sm.output.csv, [gb.csv_row(recs[n]) for n in order], gb.GEO_CSV_COLUMNS)
+    write_csv(sm.output.grid, res["grid"], ["n_p", "n_a", "time_s", "fuel_kg", "terminal_penalty_kg",
                                              "cost_classical_kg", "cost_penalised_kg", "feasible"])
     sens_cols = ["mass_flow_kg_s"] + gb.GEO_CSV_COLUMNS + ["final_ecc", "rho_t1_miss_m"]
-    _write_csv(sm.output.sensitivity, [dict(gb.csv_row(r), mass_flow_kg_s=r["mass_flow_kg_s"],
+    write_csv(sm.output.sensitivity, [dict(gb.csv_row(r), mass_flow_kg_s=r["mass_flow_kg_s"],
                                             final_ecc=r["final_ecc"], rho_t1_miss_m=r["rho_t1_miss_m"])
                                        for r in res["sensitivity"]], sens_cols)
 

@@ -1,5 +1,4 @@
 """Study D2 (libration_lp rule) and the D2+D4 reproduction table (reproduction_libration_zonotope rule)."""
-import csv
 import json
 import sys
 import time
@@ -11,19 +10,11 @@ from _step import run_step  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from spaceopt.report.tables import write_csv  # noqa: E402
 from spaceopt.artifacts import provenance, read_json, write_json, write_npz  # noqa: E402
 from spaceopt.discrete import libration_lp as ll  # noqa: E402
 from spaceopt.report.compare import compare, write_rows  # noqa: E402
 from spaceopt.report.figures import save_figure  # noqa: E402
-
-
-def _csv(path, rows, columns):
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=columns, lineterminator="\n", extrasaction="ignore")
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: (repr(v) if isinstance(v, float) else v) for k, v in r.items()})
 
 
 def _md(rows, columns):
@@ -39,16 +30,16 @@ def study(smk):
     t0 = time.perf_counter()
     res = ll.run_study(cfg)
     km = cfg["earth_moon_km"]
-    _csv(out.points, [{"point": r["point"], "x": r["x"], "y": r["y"],
+    write_csv(out.points, [{"point": r["point"], "x": r["x"], "y": r["y"],
                        "eig_real": " ".join(f"+-{v:.5f}" for v in r["real"]),
                        "eig_imag": " ".join(f"+-{v:.5f}j" for v in r["imag"]), "E0": r["E0"]}
                       for r in res["table1"]], ["point", "x", "y", "eig_real", "eig_imag", "E0"])
     rows = ll.corrections_rows(res)
-    _csv(out.corrections, rows, ["point", "criterion", "correction", "fuel", "coast_ticks", "impulses"])
+    write_csv(out.corrections, rows, ["point", "criterion", "correction", "fuel", "coast_ticks", "impulses"])
     full = [{**r, "t_start": r["t_start"], "distance_after_km": r["distance_after"] * km,
              **{f"Y0_{i}": float(r["Y0"][i]) for i in range(4)}, **{f"YN_{i}": float(r["YN"][i]) for i in range(4)}}
             for r in rows]
-    _csv(out.corrections_full, full, ["point", "criterion", "correction", "t_start", *[f"Y0_{i}" for i in range(4)],
+    write_csv(out.corrections_full, full, ["point", "criterion", "correction", "t_start", *[f"Y0_{i}" for i in range(4)],
                                       *[f"YN_{i}" for i in range(4)], "distance_after_km", "impulses", "fuel",
                                       "coast_ticks", "left_radius"])
     cmp_rows = []
@@ -60,7 +51,7 @@ def study(smk):
                              "l1_mean": float(np.mean(f["l1"])), "l2_mean": float(np.mean(f["l2"])),
                              "excess_mean": float(np.mean(f["l2"]) / np.mean(f["l1"]) - 1),
                              "l1_corrections": len(f["l1"]), "l2_corrections": len(f["l2"])})
-    _csv(out.l1_vs_l2, cmp_rows, ["point", "l1_first", "l2_first", "excess_first", "l1_mean", "l2_mean",
+    write_csv(out.l1_vs_l2, cmp_rows, ["point", "l1_first", "l2_first", "excess_first", "l1_mean", "l2_mean",
                                   "excess_mean", "l1_corrections", "l2_corrections"])
     md = ["# D2: l1 station keeping at the Earth-Moon collinear points\n\n## Table 1\n\n",
           _md([{"point": r["point"], "x": r["x"], "y": r["y"],

@@ -7,15 +7,16 @@ from _step import run_step  # noqa: E402
 
 from spaceopt import artifacts  # noqa: E402
 from spaceopt.report import compare  # noqa: E402
+from spaceopt.report.tables import write_csv  # noqa: E402
 from spaceopt.studies import multirev_report as mr  # noqa: E402
 
 
 def main(sm):
     stages = {k: v for k, v in sm.input.items() if not k.startswith("_")}
     anchor_rows = mr.anchors(stages)
-    mr.write_csv(sm.output.anchors, anchor_rows, ["case", "quantity", "value", "unit"])
+    write_csv(sm.output.anchors, anchor_rows, ["case", "quantity", "value", "unit"])
     t413 = mr.table_4_1_3(stages, sm.params.t413["thrust_N"])
-    mr.write_csv(sm.output.t413, t413, mr.T413_COLUMNS)
+    write_csv(sm.output.t413, t413, mr.T413_COLUMNS)
     t413_cfg = sm.params.t413
     comparable = t413_cfg["case"] == t413_cfg["published_case"]
     pub = compare.published_lookup(sm.input._pub) if comparable else {}
@@ -26,7 +27,7 @@ def main(sm):
         v = artifacts.read_json(p)
         ver_rows.append({"artifact": v["artifact"], **v["verification"]})
     cols = list(ver_rows[0]) if ver_rows else ["artifact"]
-    mr.write_csv(sm.output.verify, ver_rows, cols)
+    write_csv(sm.output.verify, ver_rows, cols)
     rows = mr.reproduction_rows(sm.input._pub, anchor_rows, t413, comparable, stages)
     compare.write_rows(sm.output.repro, rows)
 

@@ -15,13 +15,13 @@ pass/fail and a note.
 """
 from __future__ import annotations
 
-import csv
 import math
 from pathlib import Path
 
 import yaml
 
 from ..errors import ConfigError
+from .tables import write_csv
 
 COLUMNS = ["study", "case", "quantity", "unit", "published", "ours", "rel_diff", "abs_diff",
            "tolerance", "status", "ref", "note"]
@@ -84,10 +84,4 @@ def compare(published_path, ours: dict, notes: dict | None = None) -> list[dict]
 
 
 def write_rows(path, rows: list[dict]) -> None:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=COLUMNS, lineterminator="\n")
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: (repr(v) if isinstance(v, float) else v) for k, v in r.items()})
+    write_csv(path, rows, COLUMNS)

@@ -1,9 +1,6 @@
 """Tables of the §4.1 studies: anchors, Table 4.1.3, verification and the reproduction rows."""
 from __future__ import annotations
 
-import csv
-from pathlib import Path
-
 from .. import artifacts
 from ..report import compare
 
@@ -40,15 +37,6 @@ def table_4_1_3(stage_files: dict, thrust_levels) -> list[dict]:
         rows.append({"thrust_N": T, **{k: sc[k] for k in T413_COLUMNS[1:]}})
     return rows
 
-
-
-def write_csv(path, rows, columns):
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=columns, lineterminator="\n", extrasaction="ignore")
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: (repr(v) if isinstance(v, float) else v) for k, v in r.items()})
 
 
 def _fmt(v, digits):
