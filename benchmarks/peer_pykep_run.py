@@ -162,23 +162,29 @@ def run_problem(pk, name, prob, args):
 
 
 def eps_continuation(pk, udp, x, args):
-    """From the best solution at args.eps, one hybr solve per smaller eps (decades)."""
+    """From the best solution at args.eps down to args.eps_cont: one hybr solve per step in
+    log ε (factor 10 per step; a failed step is retried with half the log-step, at most 8 times).
+    The same generic schedule is used for every problem."""
     import numpy as np
     rows = []
-    eps = args.eps
-    while eps > args.eps_cont * 1.0001:
-        eps /= 10.0
-        udp.eps = eps
+    eps, dlog, fails = args.eps, 1.0, 0
+    target = args.eps_cont
+    while eps > target * 1.0001 and fails <= 8:
+        trial = max(eps / 10.0**dlog, target)
+        udp.eps = trial
         t1 = time.perf_counter()
-        sol = solve(udp, x, args.xtol)
-        fmax = float(np.max(np.abs(sol.fun)))
-        ok = bool(sol.success and fmax <= args.ftol)
-        row = {"eps": eps, "success": ok, "max_abs_F": fmax, "time_s": time.perf_counter() - t1}
-        if not ok:
-            rows.append(row)
-            break
-        x = sol.x
-        row["final_mass_kg"] = final_mass(udp, x)
+        try:
+            sol = solve(udp, x, args.xtol)
+            fmax = float(np.max(np.abs(sol.fun)))
+            ok = bool(sol.success and fmax <= args.ftol)
+        except Exception:
+            ok, fmax = False, float("nan")
+        row = {"eps": trial, "success": ok, "max_abs_F": fmax, "time_s": time.perf_counter() - t1}
+        if ok:
+            x, eps = sol.x, trial
+            row["final_mass_kg"] = final_mass(udp, x)
+        else:
+            dlog, fails = dlog / 2.0, fails + 1
         rows.append(row)
     udp.eps = args.eps
     return rows
