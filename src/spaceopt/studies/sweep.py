@@ -17,9 +17,11 @@ before it in the same sweep — never from a hand-given or published guess. Thre
   exponents are used; with two, each component is extrapolated by the power law through both
   rows (log-log), K_f − ΔL linearly in 1/n. Newton at the cell's data follows.
 
-A Newton that does not contract falls back to the parameter continuation
+A Newton that does not contract falls back, in this order, to L₀ substeps (the step halved, down
+to ``max_bisections`` levels), to Newton from the solved cell 360° away when there is one (the
+problem is 2π-periodic in L₀), to the parameter continuation
 (:func:`spaceopt.indirect.chain.continue_in_params`) from the previous cell of the row and
-finally to the cold chain, and the cell records the way it was obtained. Integration length is
+finally to the cold chain; each cell records the way it was obtained. Integration length is
 capped at ``max_steps_per_rev``·n steps so that a bad iterate fails fast instead of running to the
 default 400 000 steps (measured: one 50° L₀ step at 2 revolutions took 300 s that way).
 
@@ -240,9 +242,10 @@ def _substeps(sh, z_a, prm_a, prm_b, numerics, parts=2, depth=0):
     return z, J, ftau, work
 
 
-def _newton_or_fallback(tr, sh, z_pred, prm, prev_cell, numerics, log, label):
-    """Newton from ``z_pred``; else substeps (march rows) or continuation from the previous cell
-    of the row; else the cold chain."""
+def _newton_or_fallback(tr, sh, z_pred, prm, prev_cell, numerics, log, label, periodic=None):
+    """Newton from ``z_pred``; else L₀ substeps from the previous cell of the row; else Newton from
+    the solved cell 360° away (``periodic``: the problem is 2π-periodic in L₀); else the parameter
+    continuation from the previous cell; else the cold chain."""
     tol, it = float(numerics["newton_tol"]), int(numerics["newton_max_iter"])
     try:
         z, J, ftau, st = newton(sh, z_pred, prm, tol, it)
@@ -258,8 +261,17 @@ def _newton_or_fallback(tr, sh, z_pred, prm, prev_cell, numerics, log, label):
                                                               if not k.startswith("path_")}, numerics)
             st["jacobian_evaluations"] += spent
             return z, J, ftau * 2, st, "march-substeps"
-        except NewtonFailure:
-            _log(log, f"[{label}] substeps failed; continuation")
+        except NewtonFailure as exc:
+            spent += exc.args[1]["jacobian_evaluations"]
+            _log(log, f"[{label}] substeps failed")
+    if periodic is not None:
+        try:
+            z, J, ftau, st = newton(sh, periodic, prm, tol, it)
+            st["jacobian_evaluations"] += spent
+            return z, J, ftau, st, "periodic"
+        except NewtonFailure as exc:
+            spent += exc.args[1]["jacobian_evaluations"]
+            _log(log, f"[{label}] periodic image failed")
     if prev_cell is not None:
         z_prev, prm_prev = prev_cell
         try:
@@ -331,7 +343,9 @@ def solve_row(mr: dict, sw: dict, n_rev: float, sources: dict | None = None, log
                 z_pred = z_a + h * t_a
                 if t_b is not None:
                     z_pred = z_pred + 0.5 * h * h * (t_a - t_b[0]) / h_a
-            z, J, ftau, st, fb = _newton_or_fallback(tr, sh, z_pred, prm, (z_a, prm_a), numerics, log, label)
+            image = next((c["z"] for c in cells if (L0 - c["L0_deg"]) % 360.0 == 0.0), None)
+            z, J, ftau, st, fb = _newton_or_fallback(tr, sh, z_pred, prm, (z_a, prm_a), numerics, log, label,
+                                                     None if image is None else np.asarray(image))
             method = fb or "march"
         # tangent dz/dL0 at this cell from the τ column of the last evaluation (path L0_prev -> L0)
         if prev is not None and start == "cold":
