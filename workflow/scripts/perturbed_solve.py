@@ -27,7 +27,8 @@ def main(sm):
     t0 = time.perf_counter()
     try:
         if sm.params.source == "chain":
-            lp, sol = P.solve_for(tr, label, bool(cfg['cases'][case].get('lp_perturbed', False)))
+            lp, sol = P.solve_for(tr, label, bool(cfg['cases'][case].get('lp_perturbed', False)),
+                                  cfg['numerics'].get('homotopy_path', 'arclength'))
             extra = {"continued_from": "chain", "lp": {k: lp.extra[k] for k in ("J_LP_m2s3", "dv_m_s", "tof_s")},
                      "lp_perturbed": lp.shooting.model.perturbed}
         else:

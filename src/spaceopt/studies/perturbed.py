@@ -130,10 +130,12 @@ def transfer_from_config(pc: dict, case: str, model: str, *, ephemeris: str | No
 
 # ---------------------------------------------------------------- solves
 
-def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False,
+def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False, path: str = "arclength",
               options: ContinuationOptions | None = None) -> tuple[Solution, Solution]:
     """LP from the zero guess → OT (perturbed when ``tr`` is); returns (lp, ot).
 
+    ``path``: 'arclength' follows the LP → OT homotopy in arclength (passes turning points;
+    the 5-rev HEO case E5 has one at τ ≈ 0.17 for 0.5 N), 'tau' uses ``chain.solve_ot``.
     ``lp_perturbed``: solve the LP with the perturbations on (see :func:`solve_lp_perturbed`);
     the LP → OT homotopy then starts off its path (its τ = 0 end is the unperturbed LP) and the
     Newton homotopy carries the initial residual.
@@ -142,8 +144,144 @@ def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False,
         lp = solve_lp_perturbed(tr, options, label=f"{label}/lp")
     else:
         lp = chain.solve_lp(tr, options, label=f"{label}/lp")
-    ot = chain.solve_ot(lp, tr.thrust, options, label=f"{label}/ot")
+    if path == "arclength":
+        ot = solve_ot_arclength(lp, tr.thrust, label=f"{label}/ot")
+    elif path == "tau":
+        ot = chain.solve_ot(lp, tr.thrust, options, label=f"{label}/ot")
+    else:
+        raise ConfigError("perturbed.numerics.homotopy_path", path, "expected 'arclength' or 'tau'")
     return lp, ot
+
+
+def arclength_run(sh: Shooting, z0, prm, label: str, h0: float = 0.02, h_max: float = 0.3,
+                  tol_step: float = 1e-4, tol_final: float = 1e-10, max_steps: int = 400,
+                  verbose: bool = True):
+    """Follow the Newton homotopy f(z, τ) = (1 − τ) b by pseudo-arclength (passes folds in τ).
+
+    The τ-parametrised corrector of :mod:`spaceopt.indirect.continuation` cannot pass a turning
+    point of the path (dτ/ds = 0), where it stalls with a vanishing step. Here u = (z, τ) is
+    continued in arclength s: tangent t = null vector of [∂f/∂z, ∂f/∂τ + b], predictor u + h t,
+    Newton corrector on (f − (1 − τ) b, t·(u − u_pred)) = 0; the step grows or shrinks with the
+    corrector's iterations as in the τ-continuation. At τ ≥ 1 the end point is interpolated and
+    polished at τ = 1. (Should move into spaceopt.indirect.continuation; kept here because that
+    module belongs to another study.)
+    """
+    import sys
+    import jax.numpy as jnp
+    from ..errors import ConvergenceError
+    from ..indirect.shooting import shoot
+
+    rtol, atol = max(sh.rtol, chain.PATH_RTOL), max(sh.atol, chain.PATH_RTOL * 0.1)
+
+    def ev(z, tau, final=False):
+        tol = {} if final else {"rtol": rtol, "atol": atol}
+        f, J, ft, nst, ok = shoot(sh, jnp.asarray(z), float(tau), prm, **tol)
+        return np.asarray(f), np.asarray(J), np.asarray(ft), bool(ok)
+
+    t_start = time.perf_counter()
+    z = np.asarray(z0, float).copy()
+    tau = 0.0
+    f, J, ft, ok = ev(z, tau)
+    if not ok:
+        raise ConvergenceError(f"{label}: integration failed at the start", {"z": z.tolist()})
+    b = f.copy()
+    n = z.size
+
+    def tangent(J, ft, prev=None):
+        A = np.hstack([J, (ft + b)[:, None]])
+        _, _, vt = np.linalg.svd(A)
+        t = vt[-1]
+        if prev is not None and np.dot(t, prev) < 0:
+            t = -t
+        elif prev is None and t[-1] < 0:
+            t = -t
+        return t
+
+    t = tangent(J, ft)
+    h, steps, jac, rejected = h0, 0, 1, 0
+    history = []
+    while steps + rejected < max_steps:
+        u = np.concatenate([z, [tau]])
+        up = u + h * t
+        uc, accepted, it, prevn = up.copy(), False, 0, None
+        for it in range(1, 5):
+            fc, Jc, ftc, okc = ev(uc[:n], uc[n])
+            jac += 1
+            if not okc or not np.all(np.isfinite(fc)):
+                break
+            F = fc - (1.0 - uc[n]) * b
+            nF = float(np.max(np.abs(F)))
+            if nF <= tol_step:
+                accepted = True
+                break
+            if prevn is not None and nF > 0.5 * prevn:
+                break
+            prevn = nF
+            M = np.vstack([np.hstack([Jc, (ftc + b)[:, None]]), t[None, :]])
+            rhs = -np.concatenate([F, [np.dot(t, uc - up)]])
+            uc = uc + np.linalg.lstsq(M, rhs, rcond=None)[0]
+        if accepted:
+            t_new = tangent(Jc, ftc, t)
+            if uc[n] >= 1.0:                       # crossed τ = 1: interpolate, then polish
+                lam = (1.0 - u[n]) / (uc[n] - u[n])
+                z = u[:n] + lam * (uc[:n] - u[:n])
+                tau = 1.0
+                steps += 1
+                break
+            z, tau, t = uc[:n], uc[n], t_new
+            steps += 1
+            history.append((tau, h, it))
+            if verbose:
+                print(f"[{label}] s-step {steps}: tau={tau:.6f} h={h:.3g} corr={it} |F|={nF:.2e} "
+                      f"dtau/ds={t[-1]:+.3f}", file=sys.stderr, flush=True)
+            h = min(h_max, h * {1: 2.0, 2: 1.5, 3: 1.2}.get(it, 0.8))
+        else:
+            rejected += 1
+            h *= 0.3
+            if h < 1e-9:
+                raise ConvergenceError(f"{label}: arclength continuation failed at tau={tau:.6g} (step underflow)",
+                                       {"reason": "step underflow", "tau": tau, "z": z.tolist(),
+                                        "history": history[-20:]})
+    else:
+        raise ConvergenceError(f"{label}: too many arclength steps", {"tau": tau, "z": z.tolist()})
+    # polish at τ = 1
+    f, J, ft, ok = ev(z, 1.0, final=True)
+    jac += 1
+    nF = float(np.max(np.abs(f)))
+    for _ in range(12):
+        if nF <= tol_final:
+            break
+        zn = z + np.linalg.lstsq(J, -f, rcond=None)[0]
+        fn, Jn, ftn, okn = ev(zn, 1.0, final=True)
+        jac += 1
+        if not okn or float(np.max(np.abs(fn))) > 2 * nF:
+            break
+        z, f, J, nF = zn, fn, Jn, float(np.max(np.abs(fn)))
+    if nF > tol_final * 1e3:
+        raise ConvergenceError(f"{label}: final Newton polish did not converge (|F|={nF:.2e})",
+                               {"reason": "polish", "residual": nF, "z": z.tolist()})
+    stats = {"steps": steps, "rejected_steps": rejected, "jacobian_evaluations": jac,
+             "final_residual": nF, "wall_time_s": time.perf_counter() - t_start, "path": "arclength"}
+    if verbose:
+        print(f"[{label}] done (arclength): |F|={nF:.2e} steps={steps} jac={jac}", file=sys.stderr, flush=True)
+    return z, stats
+
+
+def solve_ot_arclength(lp: Solution, thrust_N: float, label="ot") -> Solution:
+    """LP → OT (3.3.1) followed by pseudo-arclength, then the ε stage (τ-continuation)."""
+    import jax.numpy as jnp
+    tr = lp.transfer
+    prm = {**tr.params(thrust=thrust_N), "blend_ref": jnp.asarray(chain.blend_reference(lp))}
+    sh = chain.shooting_for("ot", "lp", tr)
+    z, st = arclength_run(sh, chain.start_vector(sh, lp.doubled_costates(), lp.K_f), prm, label + " LP->OT")
+    sh_eps = chain.shooting_for("ot", "eps", tr)
+    stats = {"lp_to_ot": st}
+    if tr.eps_blend > tr.eps_final:
+        z, st_eps = chain._run(sh_eps, z, prm, label + " eps", None)
+        stats["eps"] = st_eps
+        stats["jacobian_evaluations"] = st["jacobian_evaluations"] + st_eps["jacobian_evaluations"]
+        stats["final_residual"] = st_eps["final_residual"]
+    return Solution("ot", sh_eps, z, tr.params(thrust=thrust_N), tr, stats, thrust_N=thrust_N)
 
 
 def lp_shooting(perturbed: bool) -> Shooting:

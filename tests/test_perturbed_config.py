@@ -1,0 +1,137 @@
+"""Perturbed §4.2 studies: config parsing, E6 date order, E9 ΔΩ budget, report logic (no solves)."""
+import copy
+import math
+from pathlib import Path
+
+import pytest
+import yaml
+
+from spaceopt.errors import ConfigError
+from spaceopt.studies import perturbed as P
+from spaceopt.studies import perturbed_report as R
+
+ROOT = Path(__file__).resolve().parents[1]
+PC = yaml.safe_load((ROOT / "config/studies/perturbed.yaml").read_text())["perturbed"]
+PUB = ROOT / "config/published/yun2023_perturbed.yaml"
+
+
+def test_schema_validates_config():
+    import jsonschema
+    schema = yaml.safe_load((ROOT / "config/schema/perturbed.schema.yaml").read_text())
+    jsonschema.validate(PC, schema)
+    bad = copy.deepcopy(PC)
+    bad["orbits"]["geo_42165"]["e"] = 1.5
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate(bad, schema)
+
+
+def test_e5_orbits_match_spec_appendix_a():
+    tr = P.transfer_from_config(PC, "e5", "unperturbed")
+    assert tr.initial.a == pytest.approx(306621.0e3)
+    assert tr.initial.e == pytest.approx(0.977591228, abs=1e-9)
+    assert tr.final.a == pytest.approx(141371.0e3)
+    assert tr.final.e == pytest.approx(0.813462450, abs=1e-9)
+    assert not tr.perturbed and tr.epoch_utc is None
+    x0 = tr.initial.mee5(1.0)
+    assert x0[1] == pytest.approx(-0.169756935, abs=1e-8)
+    assert x0[3] == pytest.approx(0.466307658, abs=1e-8)
+
+
+def test_e9_and_e8_from_a_e():
+    tr = P.transfer_from_config(PC, "e9", "j2", ephemeris="none.json")
+    assert tr.perturbed and tr.ephemeris is None            # J2 only needs no ephemeris
+    assert tr.L0_deg == pytest.approx(301.65)
+    assert tr.delta_L == pytest.approx(math.radians(22682.52), rel=1e-6)
+    xf = tr.final.mee5(tr.du)
+    assert xf[3] == pytest.approx(-0.232202036, abs=1e-8)
+    tr8 = P.transfer_from_config(PC, "e8", "g44_moon_sun", ephemeris="eph.json", n_rev=250)
+    assert tr8.n_rev == 250 and tr8.ephemeris == "eph.json" and tr8.final.a == 42165e3
+
+
+@pytest.mark.parametrize("mutate,key", [
+    (lambda c: c["cases"]["e5"].pop("thrust_N"), "perturbed.cases.e5.thrust_N"),
+    (lambda c: c["cases"]["e5"].update(foo=1), "perturbed.cases.e5.foo"),
+    (lambda c: c["orbits"]["heo_500x600000"].update(a_km=1.0), "perturbed.orbits.heo_500x600000"),
+    (lambda c: c["orbits"]["geo_42165"].update(e=1.2), "perturbed.orbits.geo_42165.e"),
+    (lambda c: c["cases"]["e5"].update(initial="nowhere"), "perturbed.cases.e5.initial"),
+])
+def test_bad_config_is_one_line_config_error(mutate, key):
+    cfg = copy.deepcopy(PC)
+    mutate(cfg)
+    with pytest.raises(ConfigError) as exc:
+        P.transfer_from_config(cfg, "e5" if "e5" in key or "heo" in key or "nowhere" in key else "e8",
+                               "unperturbed")
+    assert str(exc.value).startswith(key) and "\n" not in str(exc.value)
+
+
+def test_unknown_model_and_case():
+    with pytest.raises(ConfigError, match="perturbed.models"):
+        P.transfer_from_config(PC, "e5", "egm2008")
+    with pytest.raises(ConfigError, match="perturbed.cases"):
+        P.transfer_from_config(PC, "e10", "unperturbed")
+
+
+def test_scan_dates_and_warm_start_order():
+    dates = P.scan_dates(PC["e6"])
+    assert len(dates) == 31 and dates[0] == "2021-05-01T12:00:00" and dates[-1] == "2021-05-31T12:00:00"
+    pairs = P.scan_order(dates, PC["cases"]["e5"]["epoch_utc"])
+    assert len(pairs) == 30                                  # every date but the anchor
+    solved = {PC["cases"]["e5"]["epoch_utc"]}
+    for d, src in pairs:                                     # each source is solved before use
+        assert src in solved
+        assert abs(int(d[8:10]) - int(src[8:10])) == 1
+        solved.add(d)
+    with pytest.raises(ConfigError):
+        P.scan_order(dates, "2021-06-01T12:00:00")
+    with pytest.raises(ConfigError, match="step_days"):
+        P.scan_dates({**PC["e6"], "step_days": 0})
+
+
+def test_raan_budget_matches_spec_section_6():
+    tr = P.transfer_from_config(PC, "e9", "j2")
+    b = P.raan_budget(tr, 5.0)
+    assert b["required_draan_deg"] == pytest.approx(-15.08, abs=1e-9)
+    g = b["egm96_gm"]
+    assert g["raan_deg_per_day"] == pytest.approx(-3.0439, abs=2e-3)    # spec §6: −3.0439 deg/d
+    assert g["dargp_deg"] == pytest.approx(11.065, abs=0.02)            # ≈ the target ω 11.070
+    assert g["period_min"] == pytest.approx(114.09, abs=0.01)
+    assert b["control_must_change_draan_by_deg"] > 0                   # the control slows the regression
+    assert g["a_for_required_drift_km"] > 7792.0
+
+
+def _payload(m_f, tof, kf=1800.0, m0=1000.0, n=5, T=0.5, c=14906.108):
+    return {"scalars": {"m_f_kg": m_f, "tof_days": tof, "K_f_deg": kf, "dv_m_s": c * math.log(m0 / m_f),
+                        "burn_days": (m0 - m_f) * c / T / 86400, "burn_fraction": 0.25, "costates": {}},
+            "transfer": {"m0": m0, "n_rev": n}}
+
+
+def test_tables_and_reproduction_rows_can_fail():
+    cases = {c: {"models": PC["cases"][c]["models"]} for c in PC["cases"]}
+    good = {"e5_unperturbed": _payload(955.257737953, 60.669362453, 1818.033626880),
+            "e5_g44_moon_sun": _payload(956.0, 60.45, 1817.37),
+            "e9_j2": _payload(1000 - 0.6849, 4.997454, m0=1000, n=63.007, T=1.0, c=14709.975),
+            "e9_g44": _payload(1000 - 0.67, 4.99, m0=1000, n=63.007, T=1.0, c=14709.975),
+            "e9_g44_moon_sun": _payload(1000 - 0.6701, 4.99, m0=1000, n=63.007, T=1.0, c=14709.975)}
+    tabs = R.tables(good, ["e5", "e9"], cases, PC["e6"], [])
+    assert [r["model"] for r in tabs["e5"]] == ["unperturbed", "g44_moon_sun"]
+    o = R.ours(tabs, good, {}, None)
+    rows = {(r["case"], r["quantity"]): r for r in R.reproduction_rows(PUB, o)}
+    assert rows[("e5_unperturbed", "m_f_kg")]["status"] == "pass"
+    assert rows[("e9_j2", "tof_days")]["status"] == "pass"
+    assert rows[("e9", "g44_less_fuel_than_j2")]["status"] == "pass"
+    assert rows[("e8_unperturbed_n500", "propellant_kg")]["status"] == "missing"
+    bad = dict(good, e5_unperturbed=_payload(955.3, 60.669362453, 1818.03),
+               e9_g44=_payload(1000 - 0.70, 4.99, m0=1000, n=63.007, T=1.0, c=14709.975))
+    tabs = R.tables(bad, ["e5", "e9"], cases, PC["e6"], [])
+    rows = {(r["case"], r["quantity"]): r for r in R.reproduction_rows(PUB, R.ours(tabs, bad, {}, None))}
+    assert rows[("e5_unperturbed", "m_f_kg")]["status"] == "fail"
+    assert rows[("e9", "g44_less_fuel_than_j2")]["status"] == "fail"
+
+
+def test_e6_summary():
+    rows = [{"date": "2021-05-01", "model": "g44_moon_sun", "m_f_kg": 956.0, "tof_days": 60.0},
+            {"date": "2021-05-02", "model": "g44_moon_sun", "m_f_kg": 954.0, "tof_days": 61.0}]
+    s = R.e6_summary(rows, {"m_f_kg": 955.0, "tof_days": 60.5})
+    assert s["dm_max_kg"] == pytest.approx(1.0) and s["dm_max_date"] == "2021-05-01"
+    assert s["dm_min_kg"] == pytest.approx(-1.0) and s["dm_min_date"] == "2021-05-02"
+    assert s["dm_mean_kg"] == pytest.approx(0.0) and s["dt_mean_days"] == pytest.approx(0.0)
