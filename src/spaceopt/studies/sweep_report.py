@@ -196,7 +196,7 @@ def regularities(cells: list[dict], table_L0, nstar: dict | None) -> list[dict]:
         out.append(_reg("n*", f"T_min({hi:g} rev) <= {T_star:g} N <= T_min({lo:g} rev) at L0 = {nstar['L0_deg']:g} deg",
                         f"T_min({lo:g}) = {cells_n[lo]['T_min_N']:.6f} N, T_min({hi:g}) = "
                         f"{cells_n[hi]['T_min_N']:.6f} N; " + "; ".join(est)
-                        + f"; hyperbolic law predicts {est and ''}"
+                        + "; hyperbolic law (19.226 N rev) predicts "
                         + ", ".join(f"{n:g}: {19.226 / n:.4f} N" for n in (lo, hi)),
                         "bracket holds", holds))
     return out
@@ -274,7 +274,9 @@ def table_latex(cells, pub: dict, repro, quantity, table_L0, n_revs) -> str:
 
 
 def _tex(s) -> str:
-    return str(s).replace("_", r"\_").replace("%", r"\%").replace("&", r"\&").replace("~", r"$\sim$")
+    out = str(s).replace("_", r"\_").replace("%", r"\%").replace("&", r"\&").replace("~", r"$\sim$")
+    out = out.replace("<=", "\x00le").replace(">=", "\x00ge").replace("<", "$<$").replace(">", "$>$")
+    return out.replace("\x00le", r"$\le$").replace("\x00ge", r"$\ge$").replace("|", r"$|$")
 
 
 def paper_section(repro, regs, cells, timing: dict | None = None) -> str:
