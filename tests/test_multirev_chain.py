@@ -76,13 +76,13 @@ def test_mass_bookkeeping(e1):
     s = e1["samples"]["tmin"]
     T = e1["tmin"].thrust_N
     assert math.isclose(s["mass_kg"][-1], tr.m0 - T * s["t_s"][-1] / tr.c, rel_tol=1e-9)
-    # burn time from the sign of the switching function alone (switch instants by linear
-    # interpolation of S between samples), independent of the mass equation
+    # burn time from the sign of the switching function alone (switch instants: roots of a cubic
+    # spline through the S samples), independent of the mass equation
+    from scipy.interpolate import CubicSpline
     s = e1["samples"]["ot"]
-    S, t = s["S"], s["t_s"]
-    on = np.where(S[:-1] * S[1:] > 0, (S[:-1] > 0) * 1.0, np.clip(S[:-1] / (S[:-1] - S[1:]), 0, 1))
-    frac = np.where((S[:-1] * S[1:] <= 0) & (S[:-1] < 0), 1.0 - on, on)
-    burn_s = float(np.sum(frac * np.diff(t)))
+    spline = CubicSpline(s["t_s"], s["S"])
+    edges = np.concatenate([[s["t_s"][0]], np.sort(spline.roots(extrapolate=False)), [s["t_s"][-1]]])
+    burn_s = float(np.sum(np.diff(edges)[spline(0.5 * (edges[:-1] + edges[1:])) > 0]))
     assert math.isclose(s["mass_kg"][-1], tr.m0 - 15.0 * burn_s / tr.c, rel_tol=1e-6)
 
 
