@@ -16,7 +16,7 @@ def main(sm):
     run, cases = sm.params.run, sm.params.cases
     npz = lambda key: artifacts.read_npz(stages[key])  # noqa: E731
     if "e5" in run:
-        runs = {m: npz(f"e5_{m}") for m in cases["e5"]["models"]}
+        runs = {m: npz(f"e5_{m}") for m in cases["e5"]["models"] if f"e5_{m}" in stages}
         F.projections(runs, "E5: 5-rev HEO -> HEO (thick: burns)", out / "fig_4_2_1_1", unit_km=1.0)
         F.elements(runs, "E5: osculating elements", out / "fig_4_2_1_2")
         F.controls(runs, "E5: switching function, pitch, yaw", out / "fig_4_2_1_3")
@@ -28,7 +28,7 @@ def main(sm):
         keys = sorted(k for k in payloads if k.startswith("e6_"))
         F.costates_vs_date([k[3:] for k in keys], [payloads[k]["scalars"]["costates"] for k in keys], out / "fig_4_2_1_5")
     if "e7" in run:
-        runs = {m: npz(f"e7_{m}") for m in cases["e7"]["models"]}
+        runs = {m: npz(f"e7_{m}") for m in cases["e7"]["models"] if f"e7_{m}" in stages}
         F.projections(runs, "E7: GTO -> Molniya, 100 rev, 1 N", out / "fig_4_2_1_6")
     if "e8" in run:
         n = max(sm.params.e8_n)
@@ -47,6 +47,8 @@ def main(sm):
     if "e9" in run:
         models = cases["e9"]["models"]
         for m, fig in zip(models[:2], ("fig_4_2_3_1", "fig_4_2_3_2")):
+            if f"e9_{m}" not in stages:
+                continue
             F.controls({m: npz(f"e9_{m}")}, f"E9: LEO, {m}", out / fig, with_delta=True,
                        with_elements=("a_m", "e", "raan_deg"))
 

@@ -54,6 +54,8 @@ def tables(payloads: dict, run: list, cases: dict, e6: dict, e8_n: list) -> dict
         if case not in run:
             continue
         for m in cases[case]["models"]:
+            if f"{case}_{m}" not in payloads:
+                continue
             s = summary(payloads[f"{case}_{m}"])
             row = {"model": m, **s, "m_p_kg": s["propellant_kg"]}
             out[case].append(row)
