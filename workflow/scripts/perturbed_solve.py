@@ -27,8 +27,10 @@ def main(sm):
     t0 = time.perf_counter()
     try:
         if sm.params.source == "chain":
-            lp, sol = P.solve_for(tr, label, bool(cfg['cases'][case].get('lp_perturbed', False)),
-                                  cfg['numerics'].get('homotopy_path', 'arclength'))
+            cc = cfg["cases"][case]
+            lp, sol = P.solve_for(tr, label, bool(cc.get("lp_perturbed", False)),
+                                  cc.get("homotopy_path", cfg["numerics"].get("homotopy_path", "arclength")),
+                                  blend_ref=cc.get("blend_ref"))
             extra = {"continued_from": "chain", "lp": {k: lp.extra[k] for k in ("J_LP_m2s3", "dv_m_s", "tof_s")},
                      "lp_perturbed": lp.shooting.model.perturbed}
         else:

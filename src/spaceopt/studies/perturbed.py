@@ -50,7 +50,7 @@ AE_KEYS = ("a_km", "e")
 ANGLE_KEYS = ("i_deg", "raan_deg", "argp_deg")
 CASE_KEYS = ("initial", "final", "L0_deg", "n_rev", "m0_kg", "isp_s", "thrust_N", "epoch_utc",
              "ephemeris", "models")
-OPTIONAL_CASE_KEYS = ("lp_perturbed",)
+OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref")
 
 
 def _number(cfg, key, path, positive=False):
@@ -131,7 +131,7 @@ def transfer_from_config(pc: dict, case: str, model: str, *, ephemeris: str | No
 # ---------------------------------------------------------------- solves
 
 def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False, path: str = "arclength",
-              options: ContinuationOptions | None = None) -> tuple[Solution, Solution]:
+              options: ContinuationOptions | None = None, blend_ref: float | None = None) -> tuple[Solution, Solution]:
     """LP from the zero guess → OT (perturbed when ``tr`` is); returns (lp, ot).
 
     ``path``: 'arclength' follows the LP → OT homotopy in arclength (passes turning points;
@@ -145,9 +145,11 @@ def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False, path: str = 
     else:
         lp = chain.solve_lp(tr, options, label=f"{label}/lp")
     if path == "arclength":
-        ot = solve_ot_arclength(lp, tr.thrust, label=f"{label}/ot")
-    elif path == "tau":
+        ot = solve_ot_arclength(lp, tr.thrust, label=f"{label}/ot", blend_ref=blend_ref)
+    elif path == "tau" and blend_ref is None:
         ot = chain.solve_ot(lp, tr.thrust, options, label=f"{label}/ot")
+    elif path == "tau":
+        ot = solve_ot_tau(lp, tr.thrust, blend_ref, options, label=f"{label}/ot")
     else:
         raise ConfigError("perturbed.numerics.homotopy_path", path, "expected 'arclength' or 'tau'")
     return lp, ot
@@ -267,11 +269,32 @@ def arclength_run(sh: Shooting, z0, prm, label: str, h0: float = 0.02, h_max: fl
     return z, stats
 
 
-def solve_ot_arclength(lp: Solution, thrust_N: float, label="ot") -> Solution:
+def solve_ot_tau(lp: Solution, thrust_N: float, blend_ref: float, options=None, label="ot") -> Solution:
+    """``chain.solve_ot`` with a given blend weight reference W_ref (1 = the printed (3.3.1)
+    weights). E5 (5-rev HEO, 0.5 N): with W_ref = the mean LP primer the τ-path turns back at
+    τ ≈ 0.172 (a fold; 1 N: τ ≈ 0.079); with W_ref = 1 it runs to τ ≈ 0.972 and stalls there
+    (step 3e-6 after 77 Jacobians): also a fold, so E5 needs the arclength path."""
+    import jax.numpy as jnp
+    tr = lp.transfer
+    prm = {**tr.params(thrust=thrust_N), "blend_ref": jnp.asarray(blend_ref)}
+    sh = chain.shooting_for("ot", "lp", tr)
+    z, st = chain._run(sh, chain.start_vector(sh, lp.doubled_costates(), lp.K_f), prm, label + " LP->OT", options)
+    sh_eps = chain.shooting_for("ot", "eps", tr)
+    stats = {"lp_to_ot": st, "blend_ref": blend_ref}
+    if tr.eps_blend > tr.eps_final:
+        z, st_eps = chain._run(sh_eps, z, prm, label + " eps", options)
+        stats["eps"] = st_eps
+        stats["jacobian_evaluations"] = st["jacobian_evaluations"] + st_eps["jacobian_evaluations"]
+        stats["final_residual"] = st_eps["final_residual"]
+    return Solution("ot", sh_eps, z, tr.params(thrust=thrust_N), tr, stats, thrust_N=thrust_N)
+
+
+def solve_ot_arclength(lp: Solution, thrust_N: float, label="ot", blend_ref: float | None = None) -> Solution:
     """LP → OT (3.3.1) followed by pseudo-arclength, then the ε stage (τ-continuation)."""
     import jax.numpy as jnp
     tr = lp.transfer
-    prm = {**tr.params(thrust=thrust_N), "blend_ref": jnp.asarray(chain.blend_reference(lp))}
+    bref = chain.blend_reference(lp) if blend_ref is None else blend_ref
+    prm = {**tr.params(thrust=thrust_N), "blend_ref": jnp.asarray(bref)}
     sh = chain.shooting_for("ot", "lp", tr)
     z, st = arclength_run(sh, chain.start_vector(sh, lp.doubled_costates(), lp.K_f), prm, label + " LP->OT")
     sh_eps = chain.shooting_for("ot", "eps", tr)

@@ -245,7 +245,11 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
                   f"{budget['days']:g}~d against the required {budget['required_draan_deg']:.2f}$^\\circ$; "
                   f"the apsidal drift {g['dargp_deg']:.3f}$^\\circ$ matches the target "
                   f"$\\omega_f={budget['required_dargp_deg']:.3f}^\\circ$. The control must slow the "
-                  f"regression by {budget['control_must_change_draan_by_deg']:.3f}$^\\circ$.", ""]
+                  f"regression by {budget['control_must_change_draan_by_deg']:.3f}$^\\circ$."
+                  + (f" A free Cartesian coast with the $J_2$ model (frozen pole of the epoch) gives an "
+                     f"osculating $\\Delta\\Omega$ of {budget['numeric_coast']['draan_deg']:.3f}$^\\circ$ "
+                     f"(the osculating $\\omega$ of this near-circular orbit is not meaningful)."
+                     if "numeric_coast" in budget else ""), ""]
     if e6sum:
         lines += [r"\subsection{Departure-date scan}",
                   f"Over {e6sum['n_dates']} departure dates the perturbations change the final mass by "
