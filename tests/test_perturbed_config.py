@@ -135,3 +135,21 @@ def test_e6_summary():
     assert s["dm_max_kg"] == pytest.approx(1.0) and s["dm_max_date"] == "2021-05-01"
     assert s["dm_min_kg"] == pytest.approx(-1.0) and s["dm_min_date"] == "2021-05-02"
     assert s["dm_mean_kg"] == pytest.approx(0.0) and s["dt_mean_days"] == pytest.approx(0.0)
+
+
+def test_arclength_passes_a_fold_in_tau():
+    """z³ − 3z = −2 + 6τ from z = −2: the τ-path folds at τ = 2/3 (z = −1), turns back to
+    τ = 0 (z = 1) and reaches z³ − 3z = 4 at τ = 1 (z ≈ 2.1958); τ-continuation cannot."""
+    import numpy as np
+    from spaceopt.errors import ConvergenceError
+    from spaceopt.indirect.continuation import Continuation, ContinuationOptions
+
+    def ev(z, tau, final=False):
+        return z**3 - 3 * z + 2 - 6 * tau, np.array([[3 * z[0] ** 2 - 3]]), np.array([-6.0]), True
+
+    z, stats = P.arclength_run(None, np.array([-2.0]), None, "fold", evaluate=ev, verbose=False)
+    assert z[0] ** 3 - 3 * z[0] == pytest.approx(4.0, abs=1e-9)
+    assert z[0] == pytest.approx(2.1958233, abs=1e-6)
+    cont = Continuation(lambda zz, t: (*ev(zz, t)[:3], 0, True), ContinuationOptions(verbose=False))
+    with pytest.raises(ConvergenceError):
+        cont.run(np.array([-2.0]))

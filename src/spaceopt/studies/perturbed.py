@@ -155,9 +155,9 @@ def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False, path: str = 
     return lp, ot
 
 
-def arclength_run(sh: Shooting, z0, prm, label: str, h0: float = 0.02, h_max: float = 0.3,
+def arclength_run(sh: Shooting | None, z0, prm, label: str, h0: float = 0.02, h_max: float = 0.3,
                   tol_step: float = 1e-4, tol_final: float = 1e-10, max_steps: int = 400,
-                  verbose: bool = True):
+                  verbose: bool = True, evaluate=None):
     """Follow the Newton homotopy f(z, τ) = (1 − τ) b by pseudo-arclength (passes folds in τ).
 
     The τ-parametrised corrector of :mod:`spaceopt.indirect.continuation` cannot pass a turning
@@ -166,16 +166,19 @@ def arclength_run(sh: Shooting, z0, prm, label: str, h0: float = 0.02, h_max: fl
     Newton corrector on (f − (1 − τ) b, t·(u − u_pred)) = 0; the step grows or shrinks with the
     corrector's iterations as in the τ-continuation. At τ ≥ 1 the end point is interpolated and
     polished at τ = 1. (Should move into spaceopt.indirect.continuation; kept here because that
-    module belongs to another study.)
+    module belongs to another study.) ``evaluate(z, τ, final) -> (f, ∂f/∂z, ∂f/∂τ, ok)``
+    replaces the shooting map (tests use a scalar fold).
     """
     import sys
     import jax.numpy as jnp
     from ..errors import ConvergenceError
     from ..indirect.shooting import shoot
 
-    rtol, atol = max(sh.rtol, chain.PATH_RTOL), max(sh.atol, chain.PATH_RTOL * 0.1)
-
     def ev(z, tau, final=False):
+        if evaluate is not None:
+            f, J, ft, ok = evaluate(np.asarray(z), float(tau), final)
+            return np.atleast_1d(f), np.atleast_2d(J), np.atleast_1d(ft), bool(ok)
+        rtol, atol = max(sh.rtol, chain.PATH_RTOL), max(sh.atol, chain.PATH_RTOL * 0.1)
         tol = {} if final else {"rtol": rtol, "atol": atol}
         f, J, ft, nst, ok = shoot(sh, jnp.asarray(z), float(tau), prm, **tol)
         return np.asarray(f), np.asarray(J), np.asarray(ft), bool(ok)
