@@ -43,10 +43,12 @@ def pt_config_for(case, model):
 
 
 def pt_warm_source(case, model):
-    """E9 solves the J2 model by the chain; 4x4 and 4x4 + Moon + Sun by a warm start from the
-    previous model of the list (a Newton homotopy at the new force model)."""
+    """The first model of a case's list is solved by the chain (LP -> OT); every later model by a
+    warm start from the previous one (a Newton homotopy at the new force model, followed in
+    arclength): E9 J2 -> 4x4 -> 4x4 + Moon + Sun; E5/E7 unperturbed -> 4x4 + Moon + Sun (the
+    LP -> perturbed-OT homotopy of E5 folds back to tau < 0)."""
     models = PT["cases"][case]["models"]
-    if case != "e9" or model == models[0]:
+    if model == models[0]:
         return None
     return models[models.index(model) - 1]
 

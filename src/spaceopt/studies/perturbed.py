@@ -370,12 +370,31 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None) -> Solu
     τ; everything else (the epoch, the force model) is the new problem's from τ = 0 on, and the
     Newton homotopy f(z, τ) = (1 − τ) b absorbs the initial residual b.
     """
-    if tr_to.perturbed != sol.transfer.perturbed:
-        raise ConfigError("warm_start", tr_to.perturbations, "source and target must both be perturbed or both not")
+    if sol.transfer.perturbed and not tr_to.perturbed:
+        raise ConfigError("warm_start", tr_to.perturbations, "cannot warm-start an unperturbed problem from a perturbed one")
+    if not sol.transfer.perturbed and tr_to.perturbed:
+        return perturb_from_unperturbed(sol, tr_to, label)
     prm_to = tr_to.params(thrust=sol.thrust_N)
     out = chain.continue_in_params(sol, prm_to, options, label=label)
     out.transfer, out.thrust_N = tr_to, sol.thrust_N
     return out
+
+
+def perturb_from_unperturbed(sol: Solution, tr_to: Transfer, label: str) -> Solution:
+    """Unperturbed OT solution → the perturbed OT problem of ``tr_to`` (same orbits, thrust).
+
+    z gains p_t(0) = 0; the Newton homotopy f_p(z, τ) = (1 − τ) f_p(z₀) at the *perturbed*
+    problem (pure OT at ε_f, nothing moved) is followed in arclength. Used for E5, whose
+    LP → perturbed-OT homotopy folds back to τ < 0 (τ ≈ 0.53 with W_ref = 1).
+    """
+    sh_p = chain.shooting_for("ot", "eps", tr_to)
+    names_u = sol.shooting.unknown_names()
+    z = np.asarray([0.0 if n == "p_t" else float(sol.z[names_u.index(n)]) for n in sh_p.unknown_names()])
+    prm = {**tr_to.params(thrust=sol.thrust_N), "path_from": {}, "path_to": {}}
+    sh_param = dataclasses.replace(sh_p, model=dataclasses.replace(sh_p.model, homotopy="param"))
+    z, stats = arclength_run(sh_param, z, prm, label)
+    stats["continued_from"] = "unperturbed OT (Newton homotopy at the perturbed problem)"
+    return Solution("ot", sh_p, z, tr_to.params(thrust=sol.thrust_N), tr_to, stats, thrust_N=sol.thrust_N)
 
 
 def load(json_path) -> Solution:
