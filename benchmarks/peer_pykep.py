@@ -142,7 +142,7 @@ def pykep(name, args):
     if not PYKEP_PY.exists():
         return {"success_rate": None, "error": "benchmarks/.venv-pykep missing: run benchmarks/setup_pykep.sh"}
     cmd = [str(PYKEP_PY), str(HERE / "peer_pykep_run.py"), "--problems", name, "--starts", str(args.starts),
-           "--seed", str(args.seed), "--eps", str(args.eps)]
+           "--seed", str(args.seed), "--eps", str(args.eps), "--max-starts", str(args.max_starts)]
     if args.eps_low:
         cmd += ["--eps-cont", str(args.eps_low)]
     t0 = time.perf_counter()
@@ -218,6 +218,8 @@ def main(argv=None):
     ap.add_argument("--problems", nargs="+", default=list(ORDER))
     ap.add_argument("--starts", type=int, default=20)
     ap.add_argument("--seed", type=int, default=20260522)
+    ap.add_argument("--max-starts", type=int, default=100,
+                    help="pykep: if none of the first --starts succeeded, continue up to this many")
     ap.add_argument("--eps", type=float, default=1e-5)
     ap.add_argument("--eps-low", type=float, default=0.0)
     ap.add_argument("--skip-pykep", action="store_true")

@@ -117,7 +117,9 @@ def run_problem(pk, name, prob, args):
     t_prop = time.perf_counter()
     udp.fitness(x_probe)
     prop_s = time.perf_counter() - t_prop
-    for k in range(args.starts):
+    k = 0
+    # at least --starts random starts; if none succeeded, go on (same stream) up to --max-starts
+    while k < args.starts or (first is None and k < args.max_starts):
         x0 = lb + (ub - lb) * rng.random(lb.size)
         t1 = time.perf_counter()
         try:
@@ -140,11 +142,13 @@ def run_problem(pk, name, prob, args):
         starts.append(rec)
         print(f"[pykep {name}] start {k}: {'ok' if ok else 'fail'} {dt:.2f}s "
               f"{rec.get('final_mass_kg', '')}", file=sys.stderr, flush=True)
+        k += 1
     succ = [s for s in starts if s["success"]]
     out = {"problem": name, "settings": {"eps": args.eps, "lambda0": None, "taylor_tolerance": args.tol,
                                          "taylor_tolerance_var": args.tol_var, "method": "hybr",
                                          "factor": 1.0, "diag": "ones", "tol": args.xtol,
-                                         "success_max_abs_F": args.ftol, "seed": args.seed},
+                                         "success_max_abs_F": args.ftol, "seed": args.seed,
+                                         "min_starts": args.starts, "max_starts": args.max_starts},
            **info, "setup_compile_s": setup_s, "one_propagation_s": prop_s,
            "starts": len(starts), "successes": len(succ), "success_rate": len(succ) / len(starts),
            "total_time_s": total, "time_to_first_success_s": first,
@@ -194,6 +198,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser()
     ap.add_argument("--problems", nargs="+", default=None)
     ap.add_argument("--starts", type=int, default=20)
+    ap.add_argument("--max-starts", type=int, default=0,
+                    help="if no start of the first --starts succeeded, continue up to this many")
     ap.add_argument("--seed", type=int, default=20260522)
     ap.add_argument("--eps", type=float, default=1e-5)
     ap.add_argument("--tol", type=float, default=1e-10)
