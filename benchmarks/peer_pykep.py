@@ -138,13 +138,32 @@ def ours(prob, eps, eps_low):
     return out
 
 
-def pykep(name, args):
+def pykep_vector_from_ours(o):
+    """Our OT costates → pykep's decision vector x = [λ_p, λ_f, λ_g, λ_h, λ_k, λ_L, λ_m, λ0].
+
+    Both are costates of the same states (p, f, g, h, k, L, m); the independent variable (our K,
+    pykep's t) does not change them (time is a state with p_t in ours). Differences: p's unit
+    (ours DU = final a, pykep 1 AU: λ_p scales by AU/DU), the cost weight (ours: propellant
+    mass with weight 1 in units of m0; pykep: λ0 × the same mass), the sign convention, and
+    pykep's normalisation |x| = 1. Hence x = κ (p_p AU/DU, p_ex, p_ey, p_ix, p_iy, p_LK, p_m, −1),
+    κ = −1/|·|.
+    """
+    import numpy as np
+    from peer_problems import AU
+    c, du = o["warm"]["costates"], o["units"]["length_m"]
+    v = np.array([c["p_p"] * AU / du, c["p_ex"], c["p_ey"], c["p_ix"], c["p_iy"], c["p_LK"], c["p_m"], -1.0])
+    return (-v / np.linalg.norm(v)).tolist()
+
+
+def pykep(name, args, o=None):
     if not PYKEP_PY.exists():
         return {"success_rate": None, "error": "benchmarks/.venv-pykep missing: run benchmarks/setup_pykep.sh"}
     cmd = [str(PYKEP_PY), str(HERE / "peer_pykep_run.py"), "--problems", name, "--starts", str(args.starts),
            "--seed", str(args.seed), "--eps", str(args.eps), "--max-starts", str(args.max_starts)]
     if args.eps_low:
         cmd += ["--eps-cont", str(args.eps_low)]
+    if o is not None and o.get("success"):
+        cmd += ["--from-ours", json.dumps(pykep_vector_from_ours(o))]
     t0 = time.perf_counter()
     res = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
     wall = time.perf_counter() - t0
@@ -172,6 +191,9 @@ def compare(o, p):
         c["time_ratio"] = o["time_to_solution_s"] / p["expected_time_to_first_success_s"]
         c["time_ratio_incl_compile"] = o["cold_time_s"] / (p["expected_time_to_first_success_s"]
                                                           + p.get("setup_compile_s", 0.0))
+    fo = p.get("from_ours") or {}
+    if o.get("success") and fo.get("final_mass_kg") is not None:
+        c["mass_rel_diff_vs_pykep_from_our_costates"] = (o["final_mass_kg"] - fo["final_mass_kg"]) / fo["final_mass_kg"]
     goals = {"mass": (abs(c["mass_rel_diff"]) <= GOALS["mass_rel_diff_max"]) if "mass_rel_diff" in c else None,
              "success": o.get("success_rate", 0.0) >= GOALS["our_success_rate_min"],
              "time": (c["time_ratio"] <= GOALS["time_ratio_max"]) if "time_ratio" in c else None}
@@ -223,6 +245,8 @@ def main(argv=None):
     ap.add_argument("--eps", type=float, default=1e-5)
     ap.add_argument("--eps-low", type=float, default=0.0)
     ap.add_argument("--skip-pykep", action="store_true")
+    ap.add_argument("--cross-check-only", action="store_true",
+                    help="only run pykep from our stored costates (--problems) and merge into the JSON")
     ap.add_argument("--tables-only", action="store_true",
                     help="recompute comparisons and the LaTeX table from the existing JSON")
     ap.add_argument("--out", default=str(ROOT / "results" / "benchmarks" / "peer_pykep.json"))
@@ -237,6 +261,21 @@ def main(argv=None):
             prev = json.loads(out_path.read_text()).get("problems", {})
         except Exception:
             prev = {}
+    if args.cross_check_only:
+        data = json.loads(out_path.read_text())
+        for name in args.problems:
+            r = data["problems"][name]
+            if not r["ours"].get("success"):
+                continue
+            cmd = [str(PYKEP_PY), str(HERE / "peer_pykep_run.py"), "--problems", name, "--starts", "0",
+                   "--eps", str(args.eps), "--from-ours", json.dumps(pykep_vector_from_ours(r["ours"]))]
+            res = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+            r["pykep"]["from_ours"] = (json.loads(res.stdout)["problems"][name]["from_ours"]
+                                       if res.returncode == 0 else {"error": res.stderr[-2000:]})
+            print(f"[peer] {name}: pykep from our costates {json.dumps({k: r['pykep']['from_ours'].get(k) for k in ('success', 'final_mass_kg', 'max_abs_F_at_x0', 'nfev')})}",
+                  file=sys.stderr, flush=True)
+        args.tables_only = True
+        artifacts.write_json(out_path, data)
     if args.tables_only:
         data = json.loads(out_path.read_text())
         for r in data["problems"].values():
@@ -251,7 +290,7 @@ def main(argv=None):
         o = ours(probs[name], args.eps, args.eps_low)
         print(f"[peer] {name}: ours {json.dumps({k: o.get(k) for k in ('success', 'final_mass_kg', 'warm_time_s', 'compile_time_s')})}",
               file=sys.stderr, flush=True)
-        p = {"skipped": True} if args.skip_pykep else pykep(name, args)
+        p = {"skipped": True} if args.skip_pykep else pykep(name, args, o)
         print(f"[peer] {name}: pykep {json.dumps({k: p.get(k) for k in ('success_rate', 'final_mass_kg', 'expected_time_to_first_success_s', 'error')})}",
               file=sys.stderr, flush=True)
         results[name] = {"problem": probs[name], "ours": o, "pykep": p, "comparison": compare(o, p)}

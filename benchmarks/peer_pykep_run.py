@@ -150,10 +150,13 @@ def run_problem(pk, name, prob, args):
                                          "success_max_abs_F": args.ftol, "seed": args.seed,
                                          "min_starts": args.starts, "max_starts": args.max_starts},
            **info, "setup_compile_s": setup_s, "one_propagation_s": prop_s,
-           "starts": len(starts), "successes": len(succ), "success_rate": len(succ) / len(starts),
+           "starts": len(starts), "successes": len(succ),
+           "success_rate": (len(succ) / len(starts)) if starts else None,
            "total_time_s": total, "time_to_first_success_s": first,
            "expected_time_to_first_success_s": (total / len(succ)) if succ else None,
            "runs": starts}
+    if args.from_ours:
+        out["from_ours"] = solve_from(udp, np.asarray(json.loads(args.from_ours), float), args)
     if succ:
         masses = np.array([s["final_mass_kg"] for s in succ])
         best = succ[int(np.argmax(masses))]
@@ -163,6 +166,23 @@ def run_problem(pk, name, prob, args):
         if args.eps_cont:
             out["eps_continuation"] = eps_continuation(pk, udp, np.array(best["x"]), args)
     return out
+
+
+def solve_from(udp, x0, args):
+    """Cross-check, not part of pykep's multistart statistics: one hybr solve of pykep's own
+    problem started from our converged costates mapped to pykep's decision vector."""
+    import numpy as np
+    t1 = time.perf_counter()
+    f0 = float(np.max(np.abs(udp.fitness(x0)[1:])))
+    sol = solve(udp, x0, args.xtol)
+    fmax = float(np.max(np.abs(sol.fun)))
+    ok = bool(sol.success and fmax <= args.ftol)
+    rec = {"x0": x0.tolist(), "max_abs_F_at_x0": f0, "success": ok, "max_abs_F": fmax, "nfev": int(sol.nfev),
+           "time_s": time.perf_counter() - t1, "x": sol.x.tolist(),
+           "max_abs_x_change": float(np.max(np.abs(sol.x - x0)))}
+    if ok:
+        rec["final_mass_kg"] = final_mass(udp, sol.x)
+    return rec
 
 
 def eps_continuation(pk, udp, x, args):
@@ -207,6 +227,7 @@ def main(argv=None):
     ap.add_argument("--xtol", type=float, default=1e-8)
     ap.add_argument("--ftol", type=float, default=1e-6)
     ap.add_argument("--eps-cont", type=float, default=0.0, help="continue the best solution down to this eps")
+    ap.add_argument("--from-ours", default="", help="JSON list: pykep decision vector mapped from our costates")
     ap.add_argument("--placeholders-only", action="store_true")
     args = ap.parse_args(argv)
     made = ensure_placeholders()
