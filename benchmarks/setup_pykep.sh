@@ -14,6 +14,7 @@ if [ ! -x "$VENV/bin/python" ]; then
   "$PY" -m venv "$VENV"
 fi
 "$VENV/bin/pip" install --quiet --upgrade pip
-"$VENV/bin/pip" install --quiet "pykep==3.0.1" numpy scipy
+# versions as resolved on 2026-11-22 (pykep 3.0.1 pulls heyoka 7.10.1 and pygmo 2.20.0)
+"$VENV/bin/pip" install --quiet "pykep==3.0.1" "heyoka==7.10.1" "pygmo==2.20.0" "numpy==2.4.6" "scipy==1.17.1"
 "$VENV/bin/python" "$HERE/peer_pykep_run.py" --placeholders-only
 "$VENV/bin/python" -c "import pykep; print('pykep', pykep.__version__)"
