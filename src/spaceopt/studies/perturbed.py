@@ -243,6 +243,8 @@ def arclength_run(sh: Shooting | None, z0, prm, label: str, h0: float = 0.02, h_
         else:
             rejected += 1
             h *= 0.3
+            if verbose:
+                print(f"[{label}]   rejected at tau={tau:.6f}, h -> {h:.3g}", file=sys.stderr, flush=True)
             if h < 1e-9:
                 raise ConvergenceError(f"{label}: arclength continuation failed at tau={tau:.6g} (step underflow)",
                                        {"reason": "step underflow", "tau": tau, "z": z.tolist(),

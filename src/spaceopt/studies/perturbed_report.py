@@ -173,7 +173,7 @@ def reproduction_rows(published_path, o: dict) -> list[dict]:
     rows = compare.compare(published_path, o)
     for r in rows:
         if r["status"] == "missing":
-            r["note"] = "; ".join(s for s in (r["note"], "not run in this configuration (see run list)") if s)
+            r["note"] = "; ".join(s for s in (r["note"], "not produced in this run (not in the run list, or its solve did not converge: see the study log)") if s)
         elif r["status"] == "fail" and (r["case"], r["quantity"]) in MISS_NOTES:
             r["note"] = "; ".join(s for s in (r["note"], MISS_NOTES[(r["case"], r["quantity"])]) if s)
     return rows
@@ -236,7 +236,7 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
              r"log-uniform smoothing stage to $\varepsilon_f=10^{-5}$. The departure scan warm-starts "
              "each date from its solved neighbour, and the 4$\\times$4 LEO runs from the $J_2$ solution "
              f"(Newton homotopy at the new data). Of the reproduction rows, {n_pass} pass, {n_fail} fail "
-             f"and {n_miss} were not run in this configuration (Table~\\ref{{tab:scoreboard}}).", ""]
+             f"and {n_miss} were not produced in this run (Table~\\ref{{tab:scoreboard}}).", ""]
     if budget:
         g = budget["egm96_gm"]
         lines += [r"\subsection{LEO $\Delta\Omega$ budget}",
