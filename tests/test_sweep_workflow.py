@@ -3,7 +3,7 @@
 Dry runs in a temporary copy holding only common.smk and sweep.smk (the other studies' rules are
 not needed): the config validates against config/schema/sweep.schema.yaml, every row job exists,
 rows scaled along n wait for the rows they are scaled from, and the quick profile
-(config/quick_sweep.yaml) shrinks the sweep to two rows.
+(the sweep section of config/quick.yaml) shrinks the sweep to two rows.
 """
 import re
 import shutil
@@ -64,7 +64,7 @@ def test_full_sweep_dag(skeleton):
 
 
 def test_quick_profile(skeleton):
-    out = _dry(skeleton, "--configfile", "config/quick.yaml", "config/quick_sweep.yaml")
+    out = _dry(skeleton, "--configfile", "config/quick.yaml")
     assert _count(out, "sweep_row") == 2
     assert "results_quick/multirev/sweep/row_4.json" in out
 

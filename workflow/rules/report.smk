@@ -43,9 +43,14 @@ def reproduction_tables(wildcards=None):
     return sorted({p for _, p in _study_targets() if _REPRO_RE.search(p)})
 
 
+_FRAGMENT_RE = _re.compile(r"^(?:[A-Za-z0-9]+_)?paper_section\.tex$")
+
+
 def paper_fragments(wildcards=None):
-    """Each study's own paper section: results/<study>/paper_section.tex."""
-    return sorted({p for s, p in _study_targets() if p == f"{_RES}{s}/paper_section.tex"})
+    """Each study's own paper sections: results/<study>/[<part>_]paper_section.tex."""
+    return sorted({p for s, p in _study_targets()
+                   if p.startswith(f"{_RES}{s}/") and "/" not in p[len(f"{_RES}{s}/"):]
+                   and _FRAGMENT_RE.match(p.rsplit("/", 1)[1])})
 
 
 def study_figures(wildcards=None):

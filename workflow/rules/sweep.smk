@@ -87,7 +87,7 @@ SW_OUT = {
     "t411_tex": f"{SW_MRDIR}/table_4_1_1.tex",
     "t412_md": f"{SW_MRDIR}/table_4_1_2.md",
     "t412_tex": f"{SW_MRDIR}/table_4_1_2.tex",
-    "repro": f"{SW_MRDIR}/sweep_reproduction.csv",
+    "repro": f"{SW_MRDIR}/reproduction_sweep.csv",
     "regularities": f"{SWDIR}/regularities.csv",
     "cells": f"{SWDIR}/cells.csv",
     "section": f"{SW_MRDIR}/sweep_paper_section.tex",
