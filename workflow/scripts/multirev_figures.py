@@ -28,8 +28,9 @@ def main(sm):
         fig.projections(stages, out / f"{case}_projections", f"{case}: trajectories")
         fig.controls(stages, out / f"{case}_controls", f"{case}: control histories")
         fig.elements(stages, out / f"{case}_elements", f"{case}: osculating elements")
-    family = {f"T = {artifacts.read_json(p)['scalars']['thrust_N']:g} N": p
-              for k, p in sorted(st.items(), key=lambda kv: kv[0]) if k.startswith("t413_") and k != "t413_tmin"}
+    levels = sorted((artifacts.read_json(p)["scalars"]["thrust_N"], p)
+                    for k, p in st.items() if k.startswith("t413_") and k != "t413_tmin")
+    family = {f"T = {T:g} N": p for T, p in levels}
     family = {"T_min": st["t413_tmin"], **family}
     fig.thrust_family(family, out / "t413_family")
     fig.table_plot(mr.table_4_1_3(st, sm.params.t413["thrust_N"]), out / "t413_vs_thrust")
