@@ -294,9 +294,9 @@ def paper_section(repro, regs, cells, timing: dict | None = None) -> str:
         lines.append("Cells outside the tolerance: " + "; ".join(
             f"{_tex(r['case'])} {_tex(r['quantity'])}: published {r['published']}, ours {float(r['ours']):.6g}"
             for r in fails) + ".")
-    lines += [r"\begin{table}[h]\centering\scriptsize", r"\input{../multirev/table_4_1_1.tex}",
+    lines += [r"\begin{table}[h]\centering\scriptsize", r"\input{\resultsdir/multirev/table_4_1_1.tex}",
               r"\caption{Table 4.1.1 reproduced: $T_{min}$ [N]; published values in brackets, $\dagger$ outside the tolerance.}\end{table}",
-              r"\begin{table}[h]\centering\scriptsize", r"\input{../multirev/table_4_1_2.tex}",
+              r"\begin{table}[h]\centering\scriptsize", r"\input{\resultsdir/multirev/table_4_1_2.tex}",
               r"\caption{Table 4.1.2 reproduced: transfer time [d].}\end{table}",
               r"\begin{table}[h]\centering\scriptsize\begin{tabular}{lp{0.3\textwidth}p{0.42\textwidth}l}\hline",
               r"id & statement & measured & holds \\\hline"]
