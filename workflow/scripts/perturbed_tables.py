@@ -6,6 +6,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _step import run_step  # noqa: E402
 
 from spaceopt import artifacts  # noqa: E402
+from spaceopt.report.tables import write_csv  # noqa: E402
 from spaceopt.studies import perturbed_report as R  # noqa: E402
 
 
@@ -17,7 +18,7 @@ def main(sm):
     unpert = R.summary_or_none(payloads, "e5_unperturbed")
     tabs["e6_date_scan"] = R.e6_with_unperturbed(tabs["e6_date_scan"], unpert)
     for name, cols in R.COLUMNS.items():
-        R.write_csv(getattr(sm.output, name), tabs[name], cols)
+        write_csv(getattr(sm.output, name), tabs[name], cols)
     budget = artifacts.read_json(sm.input._budget)["budget"]
     e6sum = R.e6_summary(tabs["e6_date_scan"], unpert)
     Path(sm.output.md).write_text(R.markdown(tabs, e6sum, budget))

@@ -13,7 +13,6 @@ A table whose case is not in the run list is written with its header only.
 """
 from __future__ import annotations
 
-import csv
 import math
 from pathlib import Path
 
@@ -30,16 +29,6 @@ COLUMNS = {
     "e8": ["n_rev", "model", "propellant_kg", "tof_days"],
     "e9": ["model", "n_rev", "tof_days", "m_p_kg", "dv_m_s", "burn_h"],
 }
-
-
-def write_csv(path, rows, columns):
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=columns, lineterminator="\n", extrasaction="ignore")
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: (repr(v) if isinstance(v, float) else v) for k, v in r.items()})
 
 
 def initial_burn(npz: dict) -> bool:
