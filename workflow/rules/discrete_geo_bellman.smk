@@ -25,6 +25,7 @@ rule geo_burns:
         json=f"{_DISC}/geo_burns.json",
         switching=f"{_DISC}/geo_burns_switching.npz",
         reproduction=f"{_DISC}/geo_burns_reproduction.csv",
+        hypotheses=f"{_DISC}/geo_burns_hypotheses.csv",
         figures=expand(f"{_DISC}/figures/geo_orbits_{{s}}.{{ext}}", s=_GEO_SCHEMES, ext=["png", "pdf"])
         + expand(f"{_DISC}/figures/geo_switching_{{s}}.{{ext}}", s=_GEO_SWITCH, ext=["png", "pdf"]),
     log:

@@ -58,6 +58,7 @@ from scipy.optimize import brentq, newton
 from ..errors import ConfigError
 
 TWO_PI = 2.0 * math.pi
+APSE_ROTATION_REFERENCES = ("burn_mid_time", "burn_mid_angle", "apsis")
 
 
 # --------------------------------------------------------------------------------------------
@@ -480,20 +481,33 @@ class Scheme:
         lam3 = self.params.lambda3 if lambda3 is None else lambda3
         return self.fuel_kg + self.terminal_penalty_kg() + lam3 * len(self.burns)
 
-    def apse_rotations_deg(self):
-        """Apse-line rotation of every burn: angle between the apse line of the osculating ellipse
-        after the burn and the direction of the burn centre (the apsis the burn was centred
-        on; for the first burn, on the circular orbit, the centre point itself). Burns whose
-        ellipse after the burn has e < apse_rotation_min_ecc get NaN (no apse line)."""
+    def apse_rotations_deg(self, reference: str = "burn_mid_time"):
+        """Apse-line rotation of every burn (deg), for one of the ``APSE_ROTATION_REFERENCES``:
+
+        - ``burn_mid_time`` (reported): angle between the apse line of the osculating ellipse
+          after the burn and the polar angle of the vehicle at the middle (in time) of the burn;
+        - ``burn_mid_angle``: ... and the bisector of the burn arc (phi_start + phi_end)/2;
+        - ``apsis``: ... and the apsis the burn was centred on, i.e. the apse line before the
+          burn (psi_after - psi_before; for the first burn, on the circular orbit, the point of
+          the unperturbed orbit at the burn's mid time).
+
+        The apse line is a line: rotations are taken modulo 180 deg (an apogee burn that overshoots
+        circularisation turns its apogee into the perigee). Burns whose ellipse after the burn has
+        e < apse_rotation_min_ecc get NaN (no apse line)."""
+        if reference not in APSE_ROTATION_REFERENCES:
+            raise ValueError(f"unknown apse-rotation reference {reference!r}")
         p = self.params
         out = []
         for b in self.burns:
             if b.orbit_after.e < p.apse_rotation_min_ecc:
                 out.append(float("nan"))
                 continue
-            phi_c = integrate_burn(b.x_start, b.t_start, 0.5 * b.duration, p).y[1, -1]
-            # the apse line is a line: its rotation is taken modulo 180 deg (an apogee burn that
-            # overshoots circularisation turns its apogee into the perigee)
+            if reference == "burn_mid_time":
+                phi_c = integrate_burn(b.x_start, b.t_start, 0.5 * b.duration, p).y[1, -1]
+            elif reference == "burn_mid_angle":
+                phi_c = 0.5 * (b.x_start[1] + b.x_end[1])
+            else:
+                phi_c = state_at_time(b.orbit_before, b.t_start + 0.5 * b.duration, p.gm)[1]
             out.append(math.degrees((b.orbit_after.psi - phi_c + 0.5 * math.pi) % math.pi - 0.5 * math.pi))
         return out
 
@@ -566,6 +580,150 @@ def best_scheme(rows, lambda3: float) -> dict:
     if not feas:
         raise RuntimeError("no scheme of the grid reaches GEO before t1")
     return min(feas, key=lambda r: r["fuel_kg"] + r["terminal_penalty_kg"] + lambda3 * (r["n_p"] + r["n_a"]))
+
+
+# --------------------------------------------------------------------------------------------
+# Readings of the published transfer time and burn counts (hypothesis tests, spec D1)
+# --------------------------------------------------------------------------------------------
+def orbital_period(orb: Orbit, gm: float) -> float:
+    return TWO_PI / mean_motion(orb, gm)
+
+
+# name -> (description, supported by the spec's text?)
+TIME_BOOKKEEPINGS = {
+    "apsis_arcs": ("exact Kepler arcs from the end of a burn to dt/2 before the next apsis of the "
+                   "series' kind, transfer time = end of the last burn (the spec's method)", True),
+    "whole_periods": ("every burn-to-burn interval (centre to centre) is a whole revolution of the "
+                      "orbit after the burn, the perigee-to-apogee transfer arc included", False),
+    "plus_final_revolution": ("apsis_arcs + one revolution of the final (GEO) orbit", False),
+    "plus_initial_revolution": ("apsis_arcs + one revolution of the initial LEO before the first "
+                                "burn (phi = 0 taken as the apsis to reach)", False),
+    "whole_periods_plus_initial_and_final": ("whole_periods + one LEO and one final revolution", False),
+    "late_first_apogee_plus_final": ("apsis_arcs + one extra revolution of the transfer ellipse "
+                                     "before the first apogee burn + one final revolution "
+                                     "(ad hoc combination, the closest found)", False),
+}
+
+
+def time_variants(s: Scheme) -> dict:
+    """Transfer time of a scheme under every ``TIME_BOOKKEEPINGS`` reading (s)."""
+    p = s.params
+    B = s.burns
+    T = [orbital_period(b.orbit_after, p.gm) for b in B]
+    t_leo = orbital_period(initial_orbit(p), p.gm)
+    base = s.time_s
+    whole = 0.5 * B[0].duration + sum(T[:-1]) + 0.5 * B[-1].duration
+    k_tr = next((i for i in range(len(B) - 1) if B[i].kind != B[i + 1].kind), None)
+    t_tr = T[k_tr] if k_tr is not None else 0.0
+    return {"apsis_arcs": base, "whole_periods": whole, "plus_final_revolution": base + T[-1],
+            "plus_initial_revolution": base + t_leo,
+            "whole_periods_plus_initial_and_final": whole + t_leo + T[-1],
+            "late_first_apogee_plus_final": base + t_tr + T[-1]}
+
+
+def _select(rows, key, feasible=None):
+    feas = [r for r in rows if (feasible(r) if feasible else r["feasible"])]
+    return min(feas, key=key) if feas else None
+
+
+def hypothesis_table(res: dict, cfg: dict, target: dict) -> list[dict]:
+    """Readings of the source tested against the published classical scheme (spec D1).
+
+    ``target``: published ``n_p``, ``n_a``, ``time_s``, ``fuel_kg``, ``max_apse_rotation_deg``,
+    ``perigee_burn_s``, ``apogee_burn_s`` (read by the caller from config/published). Every row:
+    the reading, whether the spec's text supports it, the (n_p, n_a) it selects or is evaluated
+    at, its time, fuel, rotation, and whether it reproduces the published numbers."""
+    p = res["params"]
+    rows_grid = res["rows"]
+    pc = res["schemes"].get("classical_published_counts")
+    n_p0, n_a0 = target["n_p"], target["n_a"]
+    np_max, na_max = max(r["n_p"] for r in rows_grid), max(r["n_a"] for r in rows_grid)
+    out = []
+
+    def rec(h, reading, supported, s, time_s=None, counts_selected=True, note=""):
+        t = s.time_s if time_s is None else time_s
+        counts_ok = (s.n_p, s.n_a) == (n_p0, n_a0)
+        time_ok = abs(t - target["time_s"]) <= 0.001 * target["time_s"]
+        dp, da = s.durations("p"), s.durations("a")
+        if counts_selected and (s.n_p == np_max or s.n_a == na_max):
+            note = "; ".join(x for x in (note, "optimum at the search-range edge") if x)
+        out.append({
+            "hypothesis": h, "reading": reading, "spec_support": "yes" if supported else "no",
+            "counts": "selected" if counts_selected else "imposed (published)",
+            "mass_flow_kg_s": s.params.mass_flow_kg_s, "perigee_burns": s.n_p, "apogee_burns": s.n_a,
+            "perigee_burn_s": f"{dp[0]:.1f}..{dp[-1]:.1f}", "apogee_burn_s": f"{da[0]:.1f}..{da[-1]:.1f}",
+            "time_s": t, "time_minus_published_s": t - target["time_s"], "fuel_kg": s.fuel_kg,
+            "max_apse_rotation_deg": s.max_apse_rotation_deg,
+            "reproduces": ("counts+time" if counts_ok and time_ok else "counts" if counts_ok and counts_selected
+                           else "time" if time_ok else "no"),
+            "note": note})
+
+    cost = lambda r: r["fuel_kg"] + r["terminal_penalty_kg"]  # noqa: E731
+    # H0: the spec's reading
+    b = _select(rows_grid, cost)
+    rec("H0_spec", "apsis arcs, count by t1, cost fuel + terminal penalties", True, b["scheme"],
+        note="the reported classical scheme")
+    if pc is not None:
+        rec("H0_spec_published_counts", "apsis arcs at the published counts", True, pc, counts_selected=False,
+            note=f"t1 - time = {p.t1 - pc.time_s:.0f} s unused; equal continuous durations "
+                 f"{pc.dt_p_continuous:.2f} s / {pc.dt_a_continuous:.2f} s (untrimmed reading)")
+    # H1: count selection rules with the spec's time
+    b = _select(rows_grid, lambda r: r["fuel_kg"])
+    rec("H1_fuel_only", "count by t1, cost fuel only (terminal penalties ignored: the last burns are "
+        "trimmed to hit the target)", True, b["scheme"])
+    n_tot = n_p0 + n_a0
+    b = _select(rows_grid, cost, lambda r: r["feasible"] and r["n_p"] + r["n_a"] == n_tot)
+    if b is not None:
+        rec("H1_total_fixed", f"total number of burns fixed at the published {n_tot}, best split", False,
+            b["scheme"])
+    # H2: time bookkeepings (at the published counts, and the count each one selects)
+    tv = {id(r["scheme"]): time_variants(r["scheme"]) for r in rows_grid}
+    for name, (desc, supported) in TIME_BOOKKEEPINGS.items():
+        if name == "apsis_arcs":
+            continue
+        if pc is not None:
+            rec(f"H2_{name}_published_counts", desc, supported, pc, time_s=time_variants(pc)[name],
+                counts_selected=False)
+        b = _select(rows_grid, cost, lambda r, n=name: tv[id(r["scheme"])][n] <= p.t1)
+        if b is not None:
+            rec(f"H2_{name}", desc + "; count by t1 under this time", supported, b["scheme"],
+                time_s=tv[id(b["scheme"])][name])
+    # H3: mass flow readings (the spec names the ambiguity)
+    for fl, r3 in res.get("flow_grids", {}).items():
+        b = _select(r3, cost)
+        rec(f"H3_flow_{fl:g}", f"mass flow {fl:g} kg/s, count by t1", True, b["scheme"])
+    for sch in res["sensitivity_schemes"]:
+        if sch.name == "classical_published_counts" and sch.params.mass_flow_kg_s != p.mass_flow_kg_s:
+            rec(f"H3_flow_{sch.params.mass_flow_kg_s:g}_published_counts",
+                f"mass flow {sch.params.mass_flow_kg_s:g} kg/s at the published counts", True, sch,
+                counts_selected=False)
+    m = cfg["model"]
+    c_lit = 1.0 / 3.07e-3
+    out.append({k: "" for k in out[0]} | {
+        "hypothesis": "H3_flow_literal_mu", "reading": "mu = 3.07e-3 s/m as printed "
+        f"(mass flow {3.07e-3 * float(m['thrust_max_n']):g} kg/s)", "spec_support": "yes",
+        "reproduces": "no",
+        "note": f"exhaust velocity 1/mu = {c_lit:.0f} m/s: the whole propellant load gives at most "
+                f"{c_lit * math.log(p.m0 / (p.m0 - target['fuel_kg'])):.0f} m/s for the published fuel, "
+                f"far below the ~3.9 km/s LEO-GEO delta-v; GEO is unreachable"})
+    # H4: apse-rotation definitions at the published counts
+    if pc is not None:
+        for ref in APSE_ROTATION_REFERENCES:
+            rot = [abs(v) for v in pc.apse_rotations_deg(ref) if math.isfinite(v)]
+            out.append({k: "" for k in out[0]} | {
+                "hypothesis": f"H4_rotation_{ref}", "reading": f"apse rotation per burn relative to {ref}",
+                "spec_support": "yes" if ref == "apsis" else "no",
+                "counts": "imposed (published)", "perigee_burns": pc.n_p, "apogee_burns": pc.n_a,
+                "max_apse_rotation_deg": max(rot),
+                "reproduces": "rotation" if abs(max(rot) - target["max_apse_rotation_deg"])
+                <= 0.05 * target["max_apse_rotation_deg"] else "no",
+                "note": f"sum over burns {sum(rot):.3f} deg"})
+    return out
+
+
+HYPOTHESIS_COLUMNS = ["hypothesis", "reading", "spec_support", "counts", "mass_flow_kg_s",
+                      "perigee_burns", "apogee_burns", "perigee_burn_s", "apogee_burn_s", "time_s",
+                      "time_minus_published_s", "fuel_kg", "max_apse_rotation_deg", "reproduces", "note"]
 
 
 # --------------------------------------------------------------------------------------------
@@ -745,7 +903,7 @@ def run_study(cfg: dict, published_counts: tuple[int, int] | None = None, progre
     edge = {name: (s.n_p == rp[1] or s.n_a == ra[1]) for name, s in schemes.items()
             if name in ("classical", "start_penalised")}
     # mass-flow sensitivity: same burn counts, durations re-chosen (flown: same durations)
-    sens = []
+    sens, sens_schemes, flow_grids = [], [], {}
     raw = cfg.get("model", {}).get("mass_flow_sensitivity_kg_s", [])
     try:
         flows = [float(f) for f in raw]
@@ -755,19 +913,23 @@ def run_study(cfg: dict, published_counts: tuple[int, int] | None = None, progre
         if not (math.isfinite(fl) and fl > 0):
             raise ConfigError("geo_burns.model.mass_flow_sensitivity_kg_s", fl, "must be > 0")
         pf = params_from_config(cfg, mass_flow_kg_s=fl)
+        if pf != p:                                  # the count each flow selects (hypothesis H3)
+            flow_grids[fl] = scheme_grid(pf, rp, ra)
         for name, s in schemes.items():
             if s.params == pf:                       # already computed at this flow
-                sens.append(scheme_record(s, lam3))
+                s2 = s
             elif name == "flown":
                 s2 = fixed_scheme(s.durations("p"), s.durations("a"), pf, name)
             else:
                 s2 = optimised_scheme(s.n_p, s.n_a, pf, name)
             sens.append(scheme_record(s2, lam3))
+            sens_schemes.append(s2)
     grid = [{k: v for k, v in r.items() if k != "scheme"} for r in rows]
     for r in grid:
         r["cost_classical_kg"] = r["fuel_kg"] + r["terminal_penalty_kg"]
         r["cost_penalised_kg"] = r["cost_classical_kg"] + lam3 * (r["n_p"] + r["n_a"])
-    return {"params": p, "schemes": schemes, "grid": grid, "sensitivity": sens,
+    return {"params": p, "schemes": schemes, "grid": grid, "sensitivity": sens, "rows": rows,
+            "flow_grids": flow_grids, "sensitivity_schemes": sens_schemes,
             "records": {n: scheme_record(s, lam3) for n, s in schemes.items()},
             "optimum_at_search_edge": edge, "lambda3": lam3}
 
