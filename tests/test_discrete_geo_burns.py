@@ -118,3 +118,57 @@ def test_bad_search_range_raises():
     cfg["search"]["perigee_burns"] = [5, 2]
     with pytest.raises(ConfigError, match="perigee_burns"):
         gb._range(cfg, "perigee_burns")
+
+
+def test_apse_rotation_references(p):
+    s = gb.optimised_scheme(3, 3, p)
+    apsis = s.apse_rotations_deg("apsis")
+    for b, r in zip(s.burns[1:-1], apsis[1:-1]):
+        d = math.degrees(b.orbit_after.psi - b.orbit_before.psi)
+        assert r == pytest.approx((d + 90.0) % 180.0 - 90.0, abs=1e-9)
+    for ref in gb.APSE_ROTATION_REFERENCES:
+        rot = s.apse_rotations_deg(ref)
+        assert len(rot) == len(s.burns) and math.isnan(rot[-1])      # last burn circularises
+        assert all(abs(v) < 1.0 for v in rot[:-1])                     # burns centred on apsides
+    np.testing.assert_array_equal(s.apse_rotations_deg(), s.apse_rotations_deg("burn_mid_time"))
+    with pytest.raises(ValueError):
+        s.apse_rotations_deg("nowhere")
+
+
+def test_time_variants(p):
+    s = gb.optimised_scheme(2, 3, p)
+    tv = gb.time_variants(s)
+    assert set(tv) == set(gb.TIME_BOOKKEEPINGS)
+    assert tv["apsis_arcs"] == s.time_s
+    T = [gb.orbital_period(b.orbit_after, p.gm) for b in s.burns]
+    t_leo = gb.orbital_period(gb.initial_orbit(p), p.gm)
+    assert t_leo == pytest.approx(2 * math.pi * math.sqrt(p.r0 ** 3 / p.gm), rel=1e-12)
+    assert tv["plus_final_revolution"] == pytest.approx(s.time_s + T[-1], rel=1e-12)
+    assert tv["plus_initial_revolution"] == pytest.approx(s.time_s + t_leo, rel=1e-12)
+    # whole revolutions instead of the half transfer ellipse: longer by about half its period
+    # (up to the burn-centring offsets, a few burn durations)
+    extra = tv["whole_periods"] - s.time_s - 0.5 * T[1]
+    assert abs(extra) < 2 * max(b.duration for b in s.burns)
+    assert tv["late_first_apogee_plus_final"] == pytest.approx(s.time_s + T[1] + T[-1], rel=1e-12)
+
+
+def test_hypothesis_table_small():
+    cfg = copy.deepcopy(CFG)
+    cfg["search"] = {"perigee_burns": [1, 3], "apogee_burns": [2, 4]}
+    cfg["model"]["mass_flow_sensitivity_kg_s"] = [6.14]
+    res = gb.run_study(cfg, published_counts=(2, 3))
+    # the mass-flow table has one record per scheme and flow
+    assert sorted(r["scheme"] for r in res["sensitivity"]) == sorted(res["schemes"])
+    target = {"n_p": 2, "n_a": 3, "time_s": res["schemes"]["classical_published_counts"].time_s,
+              "fuel_kg": 15600.0, "max_apse_rotation_deg": 0.273}
+    rows = gb.hypothesis_table(res, cfg, target)
+    names = [r["hypothesis"] for r in rows]
+    assert names[0] == "H0_spec" and "H3_flow_literal_mu" in names and "H3_flow_6.14" in names
+    assert all(set(r) == set(gb.HYPOTHESIS_COLUMNS) for r in rows)
+    by = {r["hypothesis"]: r for r in rows}
+    # the target time was taken from the spec reading at these counts: that row must say so
+    assert by["H0_spec_published_counts"]["reproduces"] == "time"
+    assert by["H0_spec_published_counts"]["time_minus_published_s"] == 0.0
+    assert "unreachable" in by["H3_flow_literal_mu"]["note"]
+    for ref in gb.APSE_ROTATION_REFERENCES:
+        assert by[f"H4_rotation_{ref}"]["max_apse_rotation_deg"] > 0.0

@@ -654,8 +654,8 @@ def hypothesis_table(res: dict, cfg: dict, target: dict) -> list[dict]:
             "perigee_burn_s": f"{dp[0]:.1f}..{dp[-1]:.1f}", "apogee_burn_s": f"{da[0]:.1f}..{da[-1]:.1f}",
             "time_s": t, "time_minus_published_s": t - target["time_s"], "fuel_kg": s.fuel_kg,
             "max_apse_rotation_deg": s.max_apse_rotation_deg,
-            "reproduces": ("counts+time" if counts_ok and time_ok else "counts" if counts_ok and counts_selected
-                           else "time" if time_ok else "no"),
+            "reproduces": ("+".join(w for w, ok in (("counts", counts_ok and counts_selected),
+                                                    ("time", time_ok)) if ok) or "no"),
             "note": note})
 
     cost = lambda r: r["fuel_kg"] + r["terminal_penalty_kg"]  # noqa: E731
