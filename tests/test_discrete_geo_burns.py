@@ -104,6 +104,7 @@ def test_switching_function_peaks_at_burns(p):
     (("model", "r_target_m"), 1.0e6),
     (("numerics", "rtol"), 0.1),
     (("cost", "lambda1"), -5.0),
+    (("numerics", "apse_rotation_reference"), "nowhere"),
 ])
 def test_bad_config_raises(path, value):
     cfg = copy.deepcopy(CFG)

@@ -80,6 +80,7 @@ class GeoParams:
     rtol: float
     atol_scale: float
     apse_rotation_min_ecc: float
+    apse_rotation_reference: str = "burn_mid_time"
 
     @property
     def mu(self) -> float:
@@ -124,6 +125,10 @@ def params_from_config(cfg: dict, lambda3: float | None = None,
     flow = mass_flow_kg_s if mass_flow_kg_s is not None else _positive(m, "mass_flow_kg_s", f"{prefix}.model")
     if not (math.isfinite(flow) and flow > 0):
         raise ConfigError(f"{prefix}.model.mass_flow_kg_s", flow, "must be a finite number > 0")
+    ref = n.get("apse_rotation_reference", "burn_mid_time")
+    if ref not in APSE_ROTATION_REFERENCES:
+        raise ConfigError(f"{prefix}.numerics.apse_rotation_reference", ref,
+                          "must be one of " + ", ".join(APSE_ROTATION_REFERENCES))
     rtol = _positive(n, "rtol", f"{prefix}.numerics")
     if rtol >= 1e-3:
         raise ConfigError(f"{prefix}.numerics.rtol", n["rtol"], "must be < 1e-3")
@@ -135,7 +140,8 @@ def params_from_config(cfg: dict, lambda3: float | None = None,
         lambda3=(_nonneg(c, "lambda3_kg", f"{prefix}.cost") if lambda3 is None else float(lambda3)),
         duration_step_s=_positive(n, "duration_step_s", f"{prefix}.numerics"), rtol=rtol,
         atol_scale=_positive(n, "atol_scale", f"{prefix}.numerics"),
-        apse_rotation_min_ecc=_positive(n, "apse_rotation_min_ecc", f"{prefix}.numerics"))
+        apse_rotation_min_ecc=_positive(n, "apse_rotation_min_ecc", f"{prefix}.numerics"),
+        apse_rotation_reference=ref)
 
 
 # --------------------------------------------------------------------------------------------
@@ -481,10 +487,11 @@ class Scheme:
         lam3 = self.params.lambda3 if lambda3 is None else lambda3
         return self.fuel_kg + self.terminal_penalty_kg() + lam3 * len(self.burns)
 
-    def apse_rotations_deg(self, reference: str = "burn_mid_time"):
-        """Apse-line rotation of every burn (deg), for one of the ``APSE_ROTATION_REFERENCES``:
+    def apse_rotations_deg(self, reference: str | None = None):
+        """Apse-line rotation of every burn (deg), for one of the ``APSE_ROTATION_REFERENCES``
+        (default: the config's ``numerics.apse_rotation_reference``):
 
-        - ``burn_mid_time`` (reported): angle between the apse line of the osculating ellipse
+        - ``burn_mid_time``: angle between the apse line of the osculating ellipse
           after the burn and the polar angle of the vehicle at the middle (in time) of the burn;
         - ``burn_mid_angle``: ... and the bisector of the burn arc (phi_start + phi_end)/2;
         - ``apsis``: ... and the apsis the burn was centred on, i.e. the apse line before the
@@ -494,6 +501,7 @@ class Scheme:
         The apse line is a line: rotations are taken modulo 180 deg (an apogee burn that overshoots
         circularisation turns its apogee into the perigee). Burns whose ellipse after the burn has
         e < apse_rotation_min_ecc get NaN (no apse line)."""
+        reference = self.params.apse_rotation_reference if reference is None else reference
         if reference not in APSE_ROTATION_REFERENCES:
             raise ValueError(f"unknown apse-rotation reference {reference!r}")
         p = self.params
