@@ -201,7 +201,9 @@ PT_FIGS = {"e5": ["fig_4_2_1_1", "fig_4_2_1_2", "fig_4_2_1_3"], "e6": ["fig_4_2_
 
 
 def pt_figure_names():
-    return [f for c in PT["run"] for f in PT_FIGS[c]]
+    """The figures of the cases in the run list; E9 draws one figure per model, for its first two."""
+    n_e9 = min(2, len(PT["cases"]["e9"]["models"]))
+    return [f for c in PT["run"] for f in (PT_FIGS[c][:n_e9] if c == "e9" else PT_FIGS[c])]
 
 
 rule perturbed_figures:
