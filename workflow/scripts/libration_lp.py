@@ -35,24 +35,31 @@ def study(smk):
                        "eig_imag": " ".join(f"+-{v:.5f}j" for v in r["imag"]), "E0": r["E0"]}
                       for r in res["table1"]], ["point", "x", "y", "eig_real", "eig_imag", "E0"])
     rows = ll.corrections_rows(res)
-    write_csv(out.corrections, rows, ["point", "criterion", "correction", "fuel", "coast_ticks", "impulses"])
+    write_csv(out.corrections, rows, ["point", "criterion", "correction", "fuel", "fuel_measure", "fuel_sum_abs",
+                                      "fuel_sum_norm", "coast_ticks", "impulses"])
     full = [{**r, "t_start": r["t_start"], "distance_after_km": r["distance_after"] * km,
              **{f"Y0_{i}": float(r["Y0"][i]) for i in range(4)}, **{f"YN_{i}": float(r["YN"][i]) for i in range(4)}}
             for r in rows]
     write_csv(out.corrections_full, full, ["point", "criterion", "correction", "t_start", *[f"Y0_{i}" for i in range(4)],
                                       *[f"YN_{i}" for i in range(4)], "distance_after_km", "impulses", "fuel",
-                                      "coast_ticks", "left_radius"])
+                                      "fuel_measure", "fuel_sum_abs", "fuel_sum_norm", "coast_ticks", "left_radius"])
     cmp_rows = []
     for name in cfg["correction"]["points"]:
-        f = {c: [x["fuel"] for x in rows if x["point"] == name and x["criterion"] == c] for c in ("l1", "l2")}
-        if f["l1"] and f["l2"]:
+        pick = {c: [x for x in rows if x["point"] == name and x["criterion"] == c] for c in ("l1", "l2")}
+        if pick["l1"] and pick["l2"]:
+            f = {c: [x["fuel"] for x in pick[c]] for c in ("l1", "l2")}
+            one = {m: pick["l2"][0][f"fuel_{m}"] / pick["l1"][0][f"fuel_{m}"] - 1 for m in ("sum_abs", "sum_norm")}
             cmp_rows.append({"point": name, "l1_first": f["l1"][0], "l2_first": f["l2"][0],
                              "excess_first": f["l2"][0] / f["l1"][0] - 1,
+                             "excess_first_both_sum_abs": one["sum_abs"], "excess_first_both_sum_norm": one["sum_norm"],
                              "l1_mean": float(np.mean(f["l1"])), "l2_mean": float(np.mean(f["l2"])),
                              "excess_mean": float(np.mean(f["l2"]) / np.mean(f["l1"]) - 1),
-                             "l1_corrections": len(f["l1"]), "l2_corrections": len(f["l2"])})
-    write_csv(out.l1_vs_l2, cmp_rows, ["point", "l1_first", "l2_first", "excess_first", "l1_mean", "l2_mean",
-                                  "excess_mean", "l1_corrections", "l2_corrections"])
+                             "l1_corrections": len(f["l1"]), "l2_corrections": len(f["l2"]),
+                             "l1_coast_mean": float(np.mean([x["coast_ticks"] for x in pick["l1"][:-1]] or [0])),
+                             "l2_coast_mean": float(np.mean([x["coast_ticks"] for x in pick["l2"][:-1]] or [0]))})
+    write_csv(out.l1_vs_l2, cmp_rows, ["point", "l1_first", "l2_first", "excess_first", "excess_first_both_sum_abs",
+                                  "excess_first_both_sum_norm", "l1_mean", "l2_mean", "excess_mean",
+                                  "l1_corrections", "l2_corrections", "l1_coast_mean", "l2_coast_mean"])
     md = ["# D2: l1 station keeping at the Earth-Moon collinear points\n\n## Table 1\n\n",
           _md([{"point": r["point"], "x": r["x"], "y": r["y"],
                 "eigenvalues": ", ".join([f"±{v:.5f}" for v in r["real"]] + [f"±{v:.5f}j" for v in r["imag"]])}
@@ -62,7 +69,9 @@ def study(smk):
                 "YN": "(" + ", ".join(f"{v:.2e}" for v in r["YN"]) + ")"} for r in rows],
               ["point", "criterion", "correction", "Y0", "YN", "impulses", "fuel", "coast_ticks"]),
           "\n## l1 versus l2 fuel\n\n",
-          _md(cmp_rows, ["point", "l1_first", "l2_first", "excess_first", "l1_mean", "l2_mean", "excess_mean"])]
+          f"fuel measures: {res['fuel_measure']}; excess_first_both_*: one measure for both criteria\n\n",
+          _md(cmp_rows, ["point", "l1_first", "l2_first", "excess_first", "excess_first_both_sum_abs",
+                         "excess_first_both_sum_norm", "l1_mean", "l2_mean", "excess_mean"])]
     Path(out.markdown).write_text("".join(md))
     for name, fig in ll.figures(res, cfg).items():
         save_figure(fig, Path(smk.params.figdir) / f"libration_{name}.png")
@@ -83,7 +92,9 @@ def study(smk):
         "first_L1_correction": {"impulses": first.nonzero(cfg["correction"]["nonzero_tol"]), "fuel": first.fuel,
                                 "lp_objective": first.objective, "lp_residual": first.stats["residual"],
                                 "lp_iterations": first.stats["iterations"], "dual": first.dual,
-                                "l2_fuel": res["first_l2"].fuel},
+                                "l2_fuel": res["first_l2"].fuel, "fuel_measure": res["fuel_measure"],
+                                "fuel_all_measures": {"l1": first.stats["fuel"], "l2": res["first_l2"].stats["fuel"]},
+                                "steps": res["steps"], "first_control": res["first_control"], "mu": res["mu"]},
         "corrections": [{k: v for k, v in r.items()} for r in full],
         "reproduced": {f"{c}|{q}": v for (c, q), v in ours.items()},
         "reproduction_notes": {f"{c}|{q}": v for (c, q), v in ll.reproduction_notes(res, ours).items()},
