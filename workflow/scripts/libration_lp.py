@@ -97,7 +97,7 @@ def study(smk):
                                 "steps": res["steps"], "first_control": res["first_control"], "mu": res["mu"]},
         "corrections": [{k: v for k, v in r.items()} for r in full],
         "reproduced": {f"{c}|{q}": v for (c, q), v in ours.items()},
-        "reproduction_notes": {f"{c}|{q}": v for (c, q), v in ll.reproduction_notes(res, ours).items()},
+        "reproduction_notes": {f"{c}|{q}": v for (c, q), v in ll.reproduction_notes(res, ours, km).items()},
         "solver": {"lp": "scipy.optimize.linprog (HiGHS)", "integrator": cfg["integrator"],
                    "runs_wall_time_s": {f"{p}_{c}": r["wall_time_s"] for (p, c), r in res["runs"].items()}},
         "provenance": provenance(cfg, time.perf_counter() - t0),

@@ -624,7 +624,7 @@ def figures(study: dict, cfg: dict, max_points: int = 4000) -> dict:
     return figs
 
 
-def reproduction_notes(study: dict, ours: dict) -> dict:
+def reproduction_notes(study: dict, ours: dict, km: float | None = None) -> dict:
     """Likely causes of the misses, written next to the rows of the reproduction table."""
     notes = {}
     first = study["first"]
@@ -654,10 +654,15 @@ def reproduction_notes(study: dict, ours: dict) -> dict:
                                          "and mu=masses (see config)")
     notes[("d2_L1_first", "distance_after_km")] = (
         "impulses delta*U[n] applied as velocity kicks at the start of tick n, DOP853 in between, distance at the "
-        "end of the correction; variants (kick at the end of the tick: 338 km, acceleration held over the tick: "
-        "421 km, fixed-step RK4 or Euler, end at 498-500 ticks, linear flow) give 300-750 km, none 212; the "
-        "nonlinear Euler flight of exactly the LP model gives 338 km, so the miss is mostly the linearisation "
-        "error of the 3844 km offset, and the source's flight convention is not given")
+        "end of the correction; other flight conventions (kick at the end of the tick, acceleration U held over "
+        "the tick or the next one, fixed-step RK4 or Euler with step delta, end at tick 498-500) give 280-760 km, "
+        "none 212; the nonlinear Euler flight of exactly the LP model gives 338 km, so the miss is mostly the "
+        "linearisation error of the 3844 km offset (the linear flow itself gives 10-490 km by convention). "
+        "The source's flight convention is not given")
+    if ("L1", "l1") in study["runs"] and km:
+        d = [c["distance_after"] * km for c in study["runs"][("L1", "l1")]["corrections"]]
+        notes[("d2_L1_first", "distance_after_km")] += ("; our L1 corrections miss by " +
+                                                        ", ".join(f"{v:.0f}" for v in d) + " km in turn")
     fm = study.get("fuel_measure", {"l1": "sum_abs", "l2": "sum_abs"})
     f1, f2 = study["first"].stats["fuel"], study["first_l2"].stats["fuel"]
     measures = (f"l1 fuel by {fm['l1']}, l2 (least-norm U = D^+ E) fuel by {fm['l2']} (sum_abs = sum_n sum_k "
