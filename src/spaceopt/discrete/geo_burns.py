@@ -34,6 +34,12 @@ subject to transfer time <= t1 (the vehicle coasts on GEO until t1). lambda3 = 0
 classical scheme, lambda3 > 0 the start-penalised one. The flown scheme is simulated with its given
 burn durations.
 
+Readings of the source (``hypothesis_table``): the published classical scheme (7 + 11 burns,
+725 033 s) is tested against alternative readings -- time bookkeepings (``TIME_BOOKKEEPINGS``),
+count-selection rules, mass flows, apse-rotation definitions (``APSE_ROTATION_REFERENCES``). The
+spec's own reading (``apsis_arcs``) reproduces the published durations and fuel but not the time
+or the count; docs/d1-geo-burns.md records what every reading gives.
+
 Switching-function check (spec D1, Problem 1): along a simulated schedule the costates obey the
 linear adjoint equations psi' = -(df/dx)^T psi (derived with ``jax.jacfwd``, never by hand) and
 
