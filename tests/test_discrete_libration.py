@@ -230,3 +230,18 @@ def test_table1_is_ours_truncated_with_mu_from_the_masses():
     assert mismatches(ll.mass_ratio({"mu": "masses", "earth_mass_kg": 5.972e24,
                                      "moon_mass_kg": 7.34767e22})) == [("L2", "eig_imag")]
     assert ("L1", "eig_real") in mismatches(0.012155)
+
+
+def test_discretisation_variants_single_out_the_paper_reading():
+    """Of a small grid of readings only (K = N - 1, first control 1, Euler) hits the published J to 1e-6."""
+    cfg = yaml.safe_load((ROOT / "config/studies/libration_lp.yaml").read_text())["libration_lp"]
+    cfg["correction"]["variants"] = {"mu": ["masses"], "transition": ["euler", "expm"], "steps_offset": [-1, 0],
+                                     "first_control": [0, 1], "delta_N_offset": [0]}
+    pub = {q: e["value"] for (c, q), e in published_lookup(PUBLISHED).items() if c == "d2_L1_first"}
+    rows = ll.discretisation_variants(cfg, pub)
+    assert len(rows) == 8
+    hits = [r for r in rows if abs(r["J_rel_diff"]) < 1e-6]
+    assert [(r["transition"], r["steps"], r["first_control"]) for r in hits] == [("euler", 499, 1)]
+    assert hits[0]["ticks_mid_last"] == "401,498"
+    with pytest.raises(ConfigError):
+        ll.discrete_system(np.eye(4), 10, 0.1, transition="rk4")

@@ -16,8 +16,10 @@ DLZ_D4_FIGS = [f"zonotopes_{c}" for c in config["orbit_correction"]["controls"]]
 rule libration_lp:
     input:
         lib_sources("discrete/libration_lp"),
+        published=DLZ_PUBLISHED,
     output:
         points=f"{DLZ}/libration_points.csv",
+        variants=f"{DLZ}/libration_variants.csv",
         corrections=f"{DLZ}/libration_corrections.csv",
         corrections_full=f"{DLZ}/libration_corrections_full.csv",
         l1_vs_l2=f"{DLZ}/libration_l1_vs_l2.csv",

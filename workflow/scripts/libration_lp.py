@@ -13,7 +13,7 @@ import numpy as np  # noqa: E402
 from spaceopt.report.tables import write_csv  # noqa: E402
 from spaceopt.artifacts import provenance, read_json, write_json, write_npz  # noqa: E402
 from spaceopt.discrete import libration_lp as ll  # noqa: E402
-from spaceopt.report.compare import compare, write_rows  # noqa: E402
+from spaceopt.report.compare import compare, published_lookup, write_rows  # noqa: E402
 from spaceopt.report.figures import save_figure  # noqa: E402
 
 
@@ -34,6 +34,10 @@ def study(smk):
                        "eig_real": " ".join(f"+-{v:.5f}" for v in r["real"]),
                        "eig_imag": " ".join(f"+-{v:.5f}j" for v in r["imag"]), "E0": r["E0"]}
                       for r in res["table1"]], ["point", "x", "y", "eig_real", "eig_imag", "E0"])
+    pub = {q: e["value"] for (case, q), e in published_lookup(smk.input.published).items() if case == "d2_L1_first"}
+    variants = ll.discretisation_variants(cfg, pub)
+    write_csv(out.variants, variants, ["mu", "mu_value", "transition", "steps", "first_control", "delta", "support",
+                                       "J", "J_rel_diff", "impulses_max_rel_diff", "ticks_mid_last"])
     rows = ll.corrections_rows(res)
     write_csv(out.corrections, rows, ["point", "criterion", "correction", "fuel", "fuel_measure", "fuel_sum_abs",
                                       "fuel_sum_norm", "coast_ticks", "impulses"])
@@ -68,6 +72,11 @@ def study(smk):
           _md([{**r, "Y0": "(" + ", ".join(f"{v:.5f}" for v in r["Y0"]) + ")",
                 "YN": "(" + ", ".join(f"{v:.2e}" for v in r["YN"]) + ")"} for r in rows],
               ["point", "criterion", "correction", "Y0", "YN", "impulses", "fuel", "coast_ticks"]),
+          "\n## Discretisation readings of the first L1 correction (published J = 27.520867)\n\n",
+          _md(sorted(variants, key=lambda r: abs(r.get("J_rel_diff", 1.0)))[:10],
+              ["mu", "transition", "steps", "first_control", "delta", "support", "J", "J_rel_diff",
+               "impulses_max_rel_diff"]),
+          f"\n({len(variants)} readings in libration_variants.csv; the 10 closest in J above)\n",
           "\n## l1 versus l2 fuel\n\n",
           f"fuel measures: {res['fuel_measure']}; excess_first_both_*: one measure for both criteria\n\n",
           _md(cmp_rows, ["point", "l1_first", "l2_first", "excess_first", "excess_first_both_sum_abs",

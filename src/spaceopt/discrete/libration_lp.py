@@ -49,6 +49,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.integrate import DOP853, RK45, solve_ivp
+from scipy.linalg import expm
 from scipy.optimize import brentq, linprog
 
 from ..errors import ConfigError, ConvergenceError
@@ -179,9 +180,10 @@ def uncontrolled(mu, s0, t_end, integ: Integrator, n_samples: int, stop_radius: 
 # --------------------------------------------------------------------------------------------
 # The linear program
 # --------------------------------------------------------------------------------------------
-def discrete_system(A, N, delta, first_control=0):
-    """C = I + delta A, D (4 x 2N, U_i multiplies C^(N-1-i) B; the columns of the ticks
-    i < first_control are zero: no control there) and C^N, for N Euler steps."""
+def discrete_system(A, N, delta, first_control=0, transition="euler"):
+    """C = I + delta A (forward Euler; 'expm': C = exp(delta A), for the variant table only),
+    D (4 x 2N, U_i multiplies C^(N-1-i) B; the columns of the ticks i < first_control are zero:
+    no control there) and C^N, for N steps."""
     if not (isinstance(N, int) and N >= 2):
         raise ConfigError("libration_lp.correction.N", N, "must be an integer >= 2")
     if not (delta > 0):
@@ -189,7 +191,12 @@ def discrete_system(A, N, delta, first_control=0):
     if not (isinstance(first_control, int) and 0 <= first_control < N):
         raise ConfigError("libration_lp.correction.first_control", first_control,
                           "must be an integer in [0, number of Euler steps)")
-    C = np.eye(4) + delta * A
+    if transition == "euler":
+        C = np.eye(4) + delta * A
+    elif transition == "expm":
+        C = expm(delta * A)
+    else:
+        raise ConfigError("libration_lp.correction.variants.transition", transition, "must be 'euler' or 'expm'")
     blocks = [None] * N
     P = B_MATRIX.copy()
     for i in range(N - 1, -1, -1):
@@ -219,7 +226,8 @@ FUEL_MEASURES = {
 }
 
 
-def solve_correction(A, Y0, N, delta, criterion="l1", Y_N=None, first_control=0, fuel_measure=None) -> Correction:
+def solve_correction(A, Y0, N, delta, criterion="l1", Y_N=None, first_control=0, fuel_measure=None,
+                     transition="euler") -> Correction:
     """Minimise J (l1, HiGHS LP) or sum U^2 (l2, least norm) subject to Y_N = target after N Euler
     steps; ticks before first_control carry no control (U = 0 there). The fuel is measured by
     fuel_measure (default 'sum_abs', the J of the l1 criterion); stats hold every measure."""
@@ -227,15 +235,15 @@ def solve_correction(A, Y0, N, delta, criterion="l1", Y_N=None, first_control=0,
     if fuel_measure not in FUEL_MEASURES:
         raise ConfigError(f"libration_lp.correction.fuel_measure.{criterion}", fuel_measure,
                           f"must be one of {sorted(FUEL_MEASURES)}")
-    corr = _solve(A, Y0, N, delta, criterion, Y_N, first_control)
+    corr = _solve(A, Y0, N, delta, criterion, Y_N, first_control, transition)
     corr.stats["fuel"] = {m: f(corr.U) for m, f in FUEL_MEASURES.items()}
     corr.stats["fuel_measure"] = fuel_measure
     corr.fuel = corr.stats["fuel"][fuel_measure]
     return corr
 
 
-def _solve(A, Y0, N, delta, criterion, Y_N, first_control) -> Correction:
-    C, D, CN = discrete_system(A, N, delta, first_control)
+def _solve(A, Y0, N, delta, criterion, Y_N, first_control, transition="euler") -> Correction:
+    C, D, CN = discrete_system(A, N, delta, first_control, transition)
     Y0 = np.asarray(Y0, dtype=np.float64)
     Y_N = np.zeros(4) if Y_N is None else np.asarray(Y_N, dtype=np.float64)
     E = (Y_N - CN @ Y0) / delta
@@ -257,6 +265,45 @@ def _solve(A, Y0, N, delta, criterion, Y_N, first_control) -> Correction:
                           stats={"solver": "lstsq", "lp_time_s": time.perf_counter() - t0,
                                  "residual": float(np.abs(D @ u - E).max()), "D": D, "E": E})
     raise ConfigError("libration_lp.criteria", criterion, "must be 'l1' or 'l2'")
+
+
+def discretisation_variants(cfg: dict, published: dict | None = None) -> list[dict]:
+    """The first L1 l1 correction under each discretisation reading of the ``correction.variants``
+    config (mu, transition, steps_offset, first_control, delta = T/(N + delta_N_offset)): support
+    (component, tick), J, and the relative differences to the published J and impulses (in time
+    order: first U1, first U2, middle U2, last U1), for the reproduction record."""
+    cc = cfg["correction"]
+    var = cc.get("variants")
+    if not var:
+        return []
+    pub = published or {}
+    pub_vals = [pub.get(q) for q in ("U1[0]", "U2[0]", "U2[401]", "U1[498]")]
+    rows = []
+    for mu_spec in var["mu"]:
+        mu = mass_ratio({**cfg, "mu": mu_spec})
+        A = jacobian(mu, *libration_points(mu)["L1"])
+        for transition in var["transition"]:
+            for off in var["steps_offset"]:
+                for f0 in var["first_control"]:
+                    for dn in var["delta_N_offset"]:
+                        K, delta = cc["N"] + off, cc["T"] / (cc["N"] + dn)
+                        corr = solve_correction(A, cc["Y0"], K, delta, "l1", first_control=f0,
+                                                transition=transition)
+                        nz = sorted(corr.nonzero(cc["nonzero_tol"]), key=lambda e: (e[1], e[0]))
+                        row = {"mu": mu_spec, "mu_value": mu, "transition": transition, "steps": K,
+                               "first_control": f0, "delta": delta, "support": describe_impulses(nz),
+                               "J": corr.fuel}
+                        if "fuel" in pub:
+                            row["J_rel_diff"] = corr.fuel / pub["fuel"] - 1
+                        if len(nz) == 4 and all(v is not None for v in pub_vals):
+                            u1 = [e for e in nz if e[0] == 1]
+                            u2 = [e for e in nz if e[0] == 2]
+                            if len(u1) == 2 and len(u2) == 2:
+                                ours = [u1[0][2], u2[0][2], u2[1][2], u1[1][2]]
+                                row["impulses_max_rel_diff"] = max(abs(o / p_ - 1) for o, p_ in zip(ours, pub_vals))
+                                row["ticks_mid_last"] = f"{u2[1][1]},{u1[1][1]}"
+                        rows.append(row)
+    return rows
 
 
 def apply_impulses(s0, U, delta, mu, integ: Integrator, tol=0.0, samples_per_tick: int = 1):
