@@ -245,3 +245,10 @@ def test_discretisation_variants_single_out_the_paper_reading():
     assert hits[0]["ticks_mid_last"] == "401,498"
     with pytest.raises(ConfigError):
         ll.discrete_system(np.eye(4), 10, 0.1, transition="rk4")
+
+
+def test_eigen_summary_reports_each_pair_once():
+    mu = ll.mass_ratio({"mu": "masses", "earth_mass_kg": 5.972e24, "moon_mass_kg": 7.34767e22})
+    for name, p in ll.libration_points(mu).items():
+        ev = ll.eigen_summary(ll.jacobian(mu, *p))
+        assert 2 * len(ev["real"]) + 2 * len(ev["imag"]) == 4, (name, ev)

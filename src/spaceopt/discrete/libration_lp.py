@@ -91,8 +91,16 @@ def jacobian(mu: float, x: float, y: float) -> np.ndarray:
 def eigen_summary(A: np.ndarray, imag_tol: float = 1e-9) -> dict:
     """The Table-1 form: the real pair +-lambda and the imaginary pair(s) +-omega j."""
     ev = np.linalg.eigvals(A)
-    real = sorted({round(abs(e.real), 14) for e in ev if abs(e.imag) < imag_tol})
-    imag = sorted({round(abs(e.imag), 14) for e in ev if abs(e.imag) >= imag_tol}, reverse=True)
+
+    def pairs(values):
+        """Distinct magnitudes (a +- pair counts once; values within 1e-9 relative are one)."""
+        out = []
+        for v in sorted(values):
+            if not out or v - out[-1] > 1e-9 * max(1.0, abs(v)):
+                out.append(float(v))
+        return out
+    real = pairs(abs(e.real) for e in ev if abs(e.imag) < imag_tol)
+    imag = pairs(abs(e.imag) for e in ev if abs(e.imag) >= imag_tol)[::-1]
     return {"eigenvalues": ev, "real": real, "imag": imag}
 
 
