@@ -685,7 +685,8 @@ def reproduction_notes(study: dict, ours: dict, km: float | None = None) -> dict
     first = study["first"]
     basis = ours.get(("d2_L1_first", "nonzero_entries"), "")
     K, f0 = study.get("steps", study["N"]), study.get("first_control", 0)
-    reading = (f"Euler LP over K={K} steps (terminal Y_K=0), controls on ticks {f0}..{K - 1}, delta=T/N=1/{study['N']}, "
+    reading = (f"Euler LP over K={K} steps (terminal Y_K=0), controls on ticks {f0}..{K - 1}, "
+               f"delta=T/N=1/{study['N']}, "
                f"mu={study['mu']:.10f}: basis {basis}, J={first.fuel:.7f}")
     if K == study["N"] - 1 and f0 == 1:
         why = ("; the only reading found among several hundred variants (K, first tick, power of C in E, delta, "
@@ -722,7 +723,8 @@ def reproduction_notes(study: dict, ours: dict, km: float | None = None) -> dict
     f1, f2 = study["first"].stats["fuel"], study["first_l2"].stats["fuel"]
     measures = (f"l1 fuel by {fm['l1']}, l2 (least-norm U = D^+ E) fuel by {fm['l2']} (sum_abs = sum_n sum_k "
                 f"|U_k[n]|, sum_norm = sum_n |U[n]|_2); first L1 correction with one measure for both: "
-                f"sum_abs {f2['sum_abs'] / f1['sum_abs'] - 1:+.1%}, sum_norm {f2['sum_norm'] / f1['sum_norm'] - 1:+.1%}; "
+                f"sum_abs {f2['sum_abs'] / f1['sum_abs'] - 1:+.1%}, "
+                f"sum_norm {f2['sum_norm'] / f1['sum_norm'] - 1:+.1%}; "
                 "only each criterion's own norm gives the published 15-20 % (config correction.fuel_measure)")
     for q in ("l2_fuel_excess_first_L1", "l2_fuel_excess_first_L2", "l2_fuel_excess_first_L3"):
         notes[("d2_l1_vs_l2", q)] = measures
