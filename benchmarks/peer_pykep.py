@@ -234,10 +234,12 @@ def latex(results):
         r"time without compilation (compile time separate). pykep: MINPACK hybr from random starts; "
         r"expected time to first success = total time / successes. Ratio = ours / pykep expected. "
         r"$^\dagger$pykep's own problem solved by hybr from our costates (no random start succeeded).}",
-        r"\label{tab:peer-pykep}", r"\small",
+        r"\label{tab:peer-pykep}", r"\small\setlength{\tabcolsep}{4pt}",
         r"\begin{tabular}{lrrrrrrrrrr}", r"\hline",
-        r"Problem & revs & $m_f$ ours [kg] & $m_f$ pykep [kg] & rel.\ diff & ours [s] & compile [s] & "
-        r"pykep succ. & first [s] & expected [s] & ratio \\", r"\hline",
+        r"& & \multicolumn{3}{c}{final mass $m_f$ [kg]} & \multicolumn{2}{c}{ours [s]} & "
+        r"\multicolumn{3}{c}{pykep} & \\ \cline{3-5} \cline{6-7} \cline{8-10}",
+        r"Problem & revs & ours & pykep & rel.\ diff & solve & compile & succ. & first [s] & exp.\ [s] & "
+        r"ratio \\", r"\hline",
         *rows, r"\hline", r"\end{tabular}", r"\end{table}", ""])
 
 
