@@ -96,7 +96,8 @@ SW_OUT = {
 
 rule sweep_tables:
     input: rows=[sw_row_json(n) for n in SW_ROWS], nstar=f"{SWDIR}/nstar.json",
-           pub="config/published/yun2023_sweep.yaml", src=lib_sources("report/compare", "studies/sweep_report")
+           pub="config/published/yun2023_sweep.yaml", src=lib_sources("report/compare", "studies/sweep_report"),
+           figures=f"{SW_MRDIR}/sweep_figures"     # the paper fragment includes them
     output: **SW_OUT
     params: table_L0=SW["table_L0_deg"], n_revs=[r["n_rev"] for r in SW["rows"]]
     log: f"{SWDIR}/logs/tables.log"

@@ -31,7 +31,8 @@ def main(sm):
     summary = ("Sweep time per row (this run, wall / CPU s): "
                + "; ".join(f"{n:g} rev: {t['wall_s']:.0f} / {t['cpu_s']:.0f} ({t['cells']} cells)"
                            for n, t in sorted(timing.items())) + ".")
-    Path(out.section).write_text(rep.paper_section(repro, regs, cells, {"summary": summary}))
+    figures = sorted(f.stem for f in Path(sm.input.figures).glob("*.pdf"))
+    Path(out.section).write_text(rep.paper_section(repro, regs, cells, {"summary": summary}, figures))
 
 
 if __name__ == "__main__":

@@ -99,6 +99,34 @@ def _num(v, digits=10):
     return "" if v in ("", None) else f"{float(v):.{digits}g}"
 
 
+_FIGURE_CAPTIONS = {
+    "projections": "trajectories of the chain's stages (LP, $T_{min}$, OT) projected on the $xy$, $xz$ and "
+                   "$yz$ planes of the inertial frame; black: thrust, grey: coast "
+                   "(cf.\\ dissertation Figs.~4.1.1a--c and 4.1.2).",
+    "controls": "thrust acceleration, pitch and yaw against time for each stage of the chain; for the OT "
+                "stage the switching function $S$ is drawn in red (cf.\\ dissertation Figs.~4.1.1d--f and 4.1.3).",
+    "elements": "osculating semi-major axis $a$, eccentricity $e$ and inclination $i$ against time for each "
+                "stage of the chain (cf.\\ dissertation Fig.~4.1.5).",
+}
+_FAMILY_CAPTIONS = {
+    "t413_family": "Equatorial projections of the OT trajectories of Table~\\ref{tab:t413}, from the $T_{min}$ "
+                   "trajectory to the highest thrust; black: thrust, grey: coast (cf.\\ dissertation Fig.~4.1.8).",
+    "t413_vs_thrust": "Transfer time $\\Delta t_{opt}$, final mass $m_f$ and burn fraction "
+                      "$\\Delta t_b/\\Delta t_{opt}$ against thrust for the trajectories of "
+                      "Table~\\ref{tab:t413} (cf.\\ dissertation Fig.~4.1.9).",
+}
+
+
+def figure_caption(name: str) -> str:
+    """The LaTeX caption of a §4.1 figure from its file stem (``e1_controls``, ``t413_family``)."""
+    if name in _FAMILY_CAPTIONS:
+        return _FAMILY_CAPTIONS[name]
+    case, _, kind = name.partition("_")
+    if kind in _FIGURE_CAPTIONS:
+        return f"Case {_tex(case.upper())}: {_FIGURE_CAPTIONS[kind]}"
+    return _tex(name.replace("_", " ")) + "."
+
+
 def paper_section(repro_rows, verify_rows, anchor_rows, t413_rows, figures: list[str]) -> str:
     """LaTeX fragment of the §4.1 section (numbers from the artifacts, files via \\resultsdir)."""
     a = {(r["case"], r["quantity"]): float(r["value"]) for r in anchor_rows}
@@ -130,7 +158,7 @@ def paper_section(repro_rows, verify_rows, anchor_rows, t413_rows, figures: list
         out.append("Near the minimum thrust the engine never switches off: up to "
                    f"$T = {max(float(r['thrust_N']) for r in near):g}$~N, $S_{{min}} > 0$ and the burn fraction is 1, "
                    "as the dissertation reports.")
-    out += [r"\begin{table}[htbp]\centering\small", r"\input{\resultsdir/multirev/table_4_1_3.tex}",
+    out += ["", r"\begin{table}[htbp]\centering\small", r"\input{\resultsdir/multirev/table_4_1_3.tex}",
             r"\caption{Table 4.1.3 reproduced: OT trajectories against thrust (100 revolutions, $L_0=300^\circ$); "
             r"first row: the $T_{min}$ trajectory.}\label{tab:t413}\end{table}"]
     if verify_rows:
@@ -143,6 +171,6 @@ def paper_section(repro_rows, verify_rows, anchor_rows, t413_rows, figures: list
     for fig in figures:
         out += [r"\begin{figure}[htbp]\centering",
                 f"\\includegraphics[width=\\linewidth]{{\\resultsdir/multirev/figures/{fig}.pdf}}",
-                f"\\caption{{{_tex(fig.replace('_', ' '))}.}}\\end{{figure}}"]
+                f"\\caption{{{figure_caption(fig)}}}\\label{{fig:multirev-{fig.replace('_', '-')}}}\\end{{figure}}"]
     out.append(r"\clearpage")
     return "\n".join(out) + "\n"

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -266,7 +267,9 @@ def table_latex(cells, pub: dict, repro, quantity, table_L0, n_revs) -> str:
             s = f"{v:.{d}f}"
             if p is not None:
                 mark = r"$^\dagger$" if _status(repro, L0, n, quantity) == "fail" else ""
-                s = r"\shortstack[r]{" + s + mark + r"\\{\scriptsize(" + f"{p:.{d}f}" + r")}}"
+                # top-aligned stack: the first line sits on the row's baseline (a \shortstack
+                # would rise into the rule above the first row)
+                s = r"\begin{tabular}[t]{@{}r@{}}" + s + mark + r"\\{\scriptsize(" + f"{p:.{d}f}" + r")}\end{tabular}"
             row.append(s)
         out.append(f"{L0:g} & " + " & ".join(row) + r" \\")
     out += [r"\hline", r"\end{tabular}", ""]
@@ -279,7 +282,46 @@ def _tex(s) -> str:
     return out.replace("\x00le", r"$\le$").replace("\x00ge", r"$\ge$").replace("|", r"$|$")
 
 
-def paper_section(repro, regs, cells, timing: dict | None = None) -> str:
+# Identifiers of the regularity texts typeset as math (longest first).
+_MATH_TOKENS = [("n*T~", r"$n\tilde T_{min}$"), ("n x mean T_min", r"$n\times{}$mean $T_{min}$"),
+                ("dT_min", r"$\delta T_{min}$"), ("T_min", r"$T_{min}$"), ("d dt", r"$\delta\Delta t$"),
+                ("L0", r"$L_0$"), ("n*", r"$n^*$"), ("+-", r"$\pm$")]
+_MATH_RE = re.compile("|".join(re.escape(a) for a, _ in _MATH_TOKENS) + r"|\bdt\b")
+
+
+def _tex_math(s) -> str:
+    """:func:`_tex` with the identifiers of the regularity texts as math (T_min, L0, dt, n*)."""
+    table = dict(_MATH_TOKENS, dt=r"$\Delta t$")
+    out, pos = [], 0
+    for m in _MATH_RE.finditer(str(s)):
+        out += [_tex(str(s)[pos:m.start()]), table[m.group(0)]]
+        pos = m.end()
+    return "".join(out) + _tex(str(s)[pos:])
+
+
+_QUANTITY_TEX = {"T_min_N": r"$T_{min}$ [N]", "tof_days": r"$\Delta t$ [d]"}
+
+
+def _cell_tex(case: str) -> str:
+    """``L0_200_n2`` as ``$L_0 = 200^\circ$, 2 rev``."""
+    m = re.fullmatch(r"L0_([-0-9.e+]+)_n([0-9.e+]+)", case)
+    return _tex(case) if m is None else f"$L_0 = {m.group(1)}^\\circ$, {m.group(2)} rev"
+
+
+_FIGURES = {  # stem: (width, caption)
+    "mean_vs_n": (r"\linewidth", r"Minimum thrust $\tilde T_{min}$ and transfer time $\Delta\tilde t$ averaged over "
+                  r"$L_0$ against the number of revolutions $n$, with the laws $n\,\tilde T_{min} = $ const and "
+                  r"$\Delta t \propto n$ (dashed; cf.\ dissertation Fig.~4.1.6)."),
+    "dev_T_vs_L0": (r"\linewidth", r"Deviation $\delta T_{min}$ of the minimum thrust from its mean over $L_0$, "
+                    r"per number of revolutions (cf.\ dissertation Fig.~4.1.7)."),
+    "dev_dt_vs_L0": (r"\linewidth", r"Deviation $\delta\Delta t$ of the transfer time from its mean over $L_0$, "
+                     r"per number of revolutions."),
+    "nT_vs_L0": (r"0.65\linewidth", r"$n\,T_{min}$ against $L_0$ for every number of revolutions; under the "
+                 r"hyperbolic law $T_{min} \propto 1/n$ all curves would coincide."),
+}
+
+
+def paper_section(repro, regs, cells, timing: dict | None = None, figures=()) -> str:
     npub = len(repro)
     npass = sum(r["status"] == "pass" for r in repro)
     fails = [r for r in repro if r["status"] == "fail"]
@@ -292,18 +334,25 @@ def paper_section(repro, regs, cells, timing: dict | None = None) -> str:
              r"(5 printed digits: $10^{-5}$~N for $T_{min}$, $10^{-4}$ relative for $\Delta t$)."]
     if fails:
         lines.append("Cells outside the tolerance: " + "; ".join(
-            f"{_tex(r['case'])} {_tex(r['quantity'])}: published {r['published']}, ours {float(r['ours']):.6g}"
+            f"{_cell_tex(r['case'])}, {_QUANTITY_TEX.get(r['quantity'], _tex(r['quantity']))}: "
+            f"published {r['published']}, ours {float(r['ours']):.6g}"
             for r in fails) + ".")
-    lines += [r"\begin{table}[h]\centering\scriptsize", r"\input{\resultsdir/multirev/table_4_1_1.tex}",
-              r"\caption{Table 4.1.1 reproduced: $T_{min}$ [N]; published values in brackets, $\dagger$ outside the tolerance.}\end{table}",
-              r"\begin{table}[h]\centering\scriptsize", r"\input{\resultsdir/multirev/table_4_1_2.tex}",
-              r"\caption{Table 4.1.2 reproduced: transfer time [d].}\end{table}",
-              r"\begin{table}[h]\centering\scriptsize\begin{tabular}{lp{0.3\textwidth}p{0.42\textwidth}l}\hline",
-              r"id & statement & measured & holds \\\hline"]
-    for r in regs:
-        lines.append(f"{_tex(r['id'])} & {_tex(r['statement'])} & {_tex(r['measured'])} & {r['holds']} \\\\")
-    lines += [r"\hline\end{tabular}\caption{Stated regularities of \S4.1 checked on the sweep.}\end{table}"]
     if timing:
         lines.append(_tex(timing.get("summary", "")))
+    lines += ["", r"\begin{table}[htbp]\centering\scriptsize", r"\input{\resultsdir/multirev/table_4_1_1.tex}",
+              r"\caption{Table 4.1.1 reproduced: $T_{min}$ [N]; published values in brackets, $\dagger$ outside the tolerance.}\end{table}",
+              r"\begin{table}[htbp]\centering\scriptsize", r"\input{\resultsdir/multirev/table_4_1_2.tex}",
+              r"\caption{Table 4.1.2 reproduced: transfer time [d]; published values in brackets.}\end{table}",
+              r"\begin{table}[htbp]\centering\scriptsize\begin{tabular}{lp{0.3\textwidth}p{0.42\textwidth}l}\hline",
+              r"id & statement & measured & holds \\\hline"]
+    for r in regs:
+        lines.append(f"{_tex_math(r['id'])} & {_tex_math(r['statement'])} & {_tex_math(r['measured'])} & {r['holds']} \\\\")
+    lines += [r"\hline\end{tabular}\caption{Stated regularities of \S4.1 checked on the sweep.}\end{table}"]
+    order = {k: i for i, k in enumerate(_FIGURES)}
+    for fig in sorted(figures, key=lambda f: (order.get(f, len(order)), f)):
+        width, caption = _FIGURES.get(fig, (r"\linewidth", _tex(fig.replace("_", " ")) + "."))
+        lines += [r"\begin{figure}[htbp]\centering",
+                  f"\\includegraphics[width={width}]{{\\resultsdir/multirev/sweep_figures/{fig}.pdf}}",
+                  f"\\caption{{{caption}}}\\label{{fig:sweep-{fig.replace('_', '-')}}}\\end{{figure}}"]
     lines.append("")
     return "\n".join(lines)
