@@ -8,7 +8,7 @@ from spaceopt.errors import SpaceoptError as _SpaceoptError
 
 ALL_TARGETS = []
 RESULTS = config.get("results_dir", "results")
-PY = "python"
+PY = _sys_common.executable   # the interpreter running Snakemake (the venv), not whatever "python" is on PATH
 
 
 def lib_sources(*packages):

@@ -1,0 +1,133 @@
+"""The whole DAG end to end on the quick profile (config/quick.yaml), as CI runs it.
+
+One ``snakemake --cores 2 --configfile config/quick.yaml`` into a temporary results directory
+builds every landed study at small size, the reproduction scoreboard and the paper PDF; then
+``snakemake --report`` builds the HTML report offline from the same run. The tests check:
+
+- the paper PDF exists and its text holds the scoreboard's summary line of every study that
+  wrote a reproduction table, plus the errata and performance sections;
+- the HTML report is a self-contained file that embeds the registered figures;
+- right after the run nothing is left to do (the DAG is complete and deterministic in its plan);
+- the §4.1 artifacts carry provenance, dense samples and a rerun recording, and the verifier
+  re-propagates them;
+- a changed thrust level re-runs only its dependents.
+
+All tests share one run (module fixture); ``xdist_group`` keeps them on one pytest-xdist worker
+(``./dev test`` distributes with ``--dist loadgroup``), so the DAG runs once per test session.
+"""
+import csv
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from spaceopt import artifacts
+
+ROOT = Path(__file__).resolve().parents[1]
+SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))
+
+pytestmark = pytest.mark.xdist_group("quick_dag")
+
+
+def smk(*args, timeout=1800):
+    res = subprocess.run([SNAKEMAKE, *args], cwd=ROOT, capture_output=True, text=True, timeout=timeout)
+    return res.returncode, res.stdout + res.stderr
+
+
+def planned_rules(output: str) -> dict:
+    """{rule: count} from the 'Job stats' table of a dry run ({} when nothing is to be done)."""
+    if "Job stats:" not in output:
+        assert "Nothing to be done" in output, output[-2000:]
+        return {}
+    stats = output.split("Job stats:")[-1]
+    return {m.group(1): int(m.group(2)) for m in re.finditer(r"^(\w+)\s+(\d+)$", stats, re.M)
+            if m.group(1) != "total"}
+
+
+def quick_args(results: Path) -> list[str]:
+    return ["--configfile", "config/quick.yaml", "--config", f"results_dir={results}"]
+
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory):
+    """The results directory of one complete quick-profile run (default target: everything)."""
+    results = tmp_path_factory.mktemp("quick") / "results_q"
+    rc, log = smk("--cores", "2", *quick_args(results))
+    assert rc == 0, log[-4000:]
+    return results
+
+
+def study_names(results: Path) -> set[str]:
+    names = set()
+    for path in results.glob("*/reproduction*.csv"):
+        names |= {r["study"] for r in csv.DictReader(open(path))}
+    return names
+
+
+def test_nothing_left_to_do_after_the_run(quick):
+    rc, out = smk("-n", "--cores", "2", *quick_args(quick))
+    assert rc == 0, out[-2000:]
+    assert planned_rules(out) == {}
+
+
+@pytest.mark.skipif(shutil.which("pdftotext") is None, reason="poppler-utils not installed (./dev setup)")
+def test_paper_pdf_holds_the_scoreboard_of_every_study(quick):
+    pdf = quick / "paper" / "paper.pdf"
+    assert pdf.read_bytes()[:5] == b"%PDF-"
+    text = subprocess.run(["pdftotext", "-layout", str(pdf), "-"], capture_output=True, text=True,
+                          check=True).stdout
+    studies = study_names(quick)
+    # every study of the DAG writes its reproduction table, even on the quick profile
+    assert {"multirev", "sweep", "perturbed", "discrete_geo_bellman",
+            "discrete_libration_zonotope"} <= studies, studies
+    summary = list(csv.DictReader(open(quick / "report" / "scoreboard_summary.csv")))
+    assert {s["study"] for s in summary} == studies | {"all"}
+    for s in summary:   # the summary line of each study, with its row count, is in the PDF
+        name = s["study"].replace("_", r"[_\s]?")
+        assert re.search(rf"{name}\s+{s['total']}\s", text), (s, text[:3000])
+    for heading in ("Reproduction scoreboard", "Errata", "Performance"):
+        assert re.search(heading, text, re.I), heading
+
+
+def test_html_report_builds_offline_with_the_figures(quick):
+    html = quick / "report.html"
+    rc, out = smk("--cores", "1", "--report", str(html), *quick_args(quick), timeout=600)
+    assert rc == 0, out[-3000:]
+    text = html.read_text(errors="replace")
+    assert len(text) > 100_000 and "<html" in text.lower()
+    assert "scoreboard" in text.lower()
+    assert "fig_4_2_3_1" in text or "multirev" in text      # a registered study figure
+
+
+def test_multirev_artifacts_carry_provenance_samples_and_recording(quick):
+    mr = quick / "multirev"
+    rows = list(csv.DictReader(open(mr / "anchors.csv")))
+    cases = {r["case"] for r in rows}
+    assert {"e1_lp", "e1_tmin", "e1_ot_15N"} <= cases
+    assert {r["quantity"] for r in rows if r["case"] == "e1_tmin"} >= {"T_min_N", "tof_days", "m_f_kg", "K_f_deg"}
+    data = artifacts.read_json(mr / "e1" / "ot_15N.json")
+    prov = data["provenance"]
+    assert len(prov["config_hash"]) == 64 and prov["code"]["commit"] and prov["packages"]["jax"]
+    smp = artifacts.read_npz(mr / "e1" / "ot_15N.json")
+    for key in ("t_s", "r_m", "v_m_s", "mass_kg", "thrust_N", "S"):
+        assert np.all(np.isfinite(smp[key])), key
+    assert (mr / "e1" / "ot_15N.rrd").stat().st_size > 1000
+    ver = list(csv.DictReader(open(mr / "verification.csv")))
+    assert ver and all(abs(float(v["final_mass_error_kg"])) < 1e-2 for v in ver)
+
+
+def test_changing_one_thrust_level_reruns_only_its_dependents(quick, tmp_path):
+    override = tmp_path / "override.yaml"
+    override.write_text(yaml.safe_dump({"multirev": {"cases": {"e1": {"ot_thrust_N": [16.0]}},
+                                                     "table_4_1_3": {"anchor_N": 16.0, "thrust_N": [16.0]}}}))
+    rc, out = smk("-n", "--cores", "2", f"{quick}/multirev/anchors.csv", "--configfile", "config/quick.yaml",
+                  str(override), "--config", f"results_dir={quick}")
+    assert rc == 0, out[-2000:]
+    jobs = planned_rules(out)
+    assert "multirev_lp" not in jobs and "multirev_tmin" not in jobs, jobs
+    assert jobs.get("multirev_ot") == 1 and jobs.get("multirev_verify") == 1, jobs
