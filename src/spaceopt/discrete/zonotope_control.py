@@ -173,24 +173,32 @@ class Solution:
     extra: dict = field(default_factory=dict)
 
 
+def smallest_horizon(gauge_at, n_max: int, tol: float, steps: str) -> tuple[int, list]:
+    """N_min: the first N = 1..n_max whose 0-controllable set X(N, 0) holds x0 (gauge <= 1 + tol).
+
+    ``gauge_at(N)`` is the gauge of x0 with respect to X(N, 0); returns (N_min, gauges up to N_min).
+    """
+    gauges = []
+    for n in range(1, n_max + 1):
+        gauges.append(gauge_at(n))
+        if gauges[-1] <= 1 + tol:
+            return n, gauges
+    raise ConvergenceError(f"orbit_correction.n_max={n_max}: x0 not 0-controllable within "
+                           f"{n_max} {steps}", {"gauges": gauges})
+
+
 def solve_dp(x0, dt: float, control: str, a_max: float, n_max: int, tol: float = 1e-9) -> Solution:
     """Dynamic programming (original steps, box controls, vertex LP of the appendix)."""
     t0 = time.perf_counter()
     x0 = np.asarray(x0, dtype=np.float64)
     At, Bt = transition(dt), input_matrix(dt, control)
     verts = {0: np.zeros((1, 3))}
-    gauges = []
-    n_min = None
-    for n in range(1, n_max + 1):
+
+    def gauge_at(n):                                  # x0 in X(n, 0) iff gauge <= 1
         verts[n] = zonotope_vertices(zonotope_generators(dt, control, n, a_max))
-        g = _gauge_vertices(x0, verts[n])             # x0 in X(n, 0) iff gauge <= 1
-        gauges.append(g)
-        if g <= 1 + tol:
-            n_min = n
-            break
-    if n_min is None:
-        raise ConvergenceError(f"orbit_correction.n_max={n_max}: x0 not 0-controllable within "
-                               f"{n_max} steps ({control}, DP)", {"gauges": gauges})
+        return _gauge_vertices(x0, verts[n])
+
+    n_min, gauges = smallest_horizon(gauge_at, n_max, tol, f"steps ({control}, DP)")
     xs, us, ws, rs = [x0], [], [], []
     x = x0
     for k in range(n_min):
@@ -278,17 +286,15 @@ def solve_mp(x0, dt: float, control: str, a_max: float, n_max: int, tol: float =
     """Maximum principle on the regrouped system with ball control sets (see module docstring)."""
     t0 = time.perf_counter()
     x0 = np.asarray(x0, dtype=np.float64)
-    gauges, n_min, c = [], None, None
-    for n in range(1, n_max + 1):
-        Ms, As, Bs = _mp_matrices(dt, control, n)
-        g, c = ball_sum_gauge(x0, Ms, a_max, c_start=c)
-        gauges.append(g)
-        if g <= 1 + tol:
-            n_min = n
-            break
-    if n_min is None:
-        raise ConvergenceError(f"orbit_correction.n_max={n_max}: x0 not 0-controllable within "
-                               f"{n_max} regrouped steps ({control}, MP)", {"gauges": gauges})
+    last = {"c": None}                                # normal of the last gauge: warm start, then psi(0)
+
+    def gauge_at(n):
+        last["Ms"], last["As"], last["Bs"] = _mp_matrices(dt, control, n)
+        g, last["c"] = ball_sum_gauge(x0, last["Ms"], a_max, c_start=last["c"])
+        return g
+
+    n_min, gauges = smallest_horizon(gauge_at, n_max, tol, f"regrouped steps ({control}, MP)")
+    As, Bs, c = last["As"], last["Bs"], last["c"]
     alpha = gauges[-1]
     psi = -c                                          # -psi(0) in the normal cone at x0/alpha
     xs, us, ws, x = [x0], [], [], x0
