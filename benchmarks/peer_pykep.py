@@ -41,6 +41,7 @@ HERE = Path(__file__).resolve().parent
 PYKEP_PY = HERE / ".venv-pykep" / "bin" / "python"
 sys.path.insert(0, str(HERE))
 
+from multirev import propagation_time  # noqa: E402  (same measure as the multirev benchmark)
 from peer_problems import ORDER, problems  # noqa: E402
 
 GOALS = {"mass_rel_diff_max": 1e-4, "our_success_rate_min": 1.0, "time_ratio_max": 0.5}
@@ -85,22 +86,6 @@ def run_chain(tr):
     return ot, rec
 
 
-def one_propagation_s(sol, repeats=3):
-    """Median wall time of one shooting evaluation (trajectory + sensitivities) at the solution."""
-    import statistics
-    import jax
-    import jax.numpy as jnp
-    from spaceopt.indirect.shooting import shoot
-    z = jnp.asarray(sol.z)
-    jax.block_until_ready(shoot(sol.shooting, z, 1.0, sol.prm))
-    ts = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        jax.block_until_ready(shoot(sol.shooting, z, 1.0, sol.prm))
-        ts.append(time.perf_counter() - t0)
-    return statistics.median(ts)
-
-
 _COMPILED = []      # problems solved earlier in this process (compiled functions are shared)
 
 
@@ -126,7 +111,7 @@ def ours(prob, eps, eps_low):
                 # one compiled shooting map per model (tolerances and data traced): only the first
                 # problem of a process pays XLA compilation; later "cold" runs reuse it
                 "compile_shared_with": list(_COMPILED),
-                "one_propagation_with_sensitivities_s": one_propagation_s(ot)})
+                "one_propagation_with_sensitivities_s": propagation_time(ot)[0]})
     _COMPILED.append(prob["name"])
     if eps_low:
         try:
@@ -210,7 +195,6 @@ def latex(results):
     for name in [k for k in ORDER if k in results]:
         r = results[name]
         o, p, c = r["ours"], r["pykep"], r["comparison"]
-        rate = p.get("success_rate")
         rows.append(" & ".join([
             name, f"{r['problem']['n_rev']:.2f}",
             fmt(o.get("final_mass_kg"), ".4f") if o.get("success") else "fail",
