@@ -4,15 +4,12 @@ The structural checks run everywhere. The dry run with the SLURM profile needs t
 plugin, an optional dependency: pip install -e .[slurm].
 """
 import importlib.util
-import os
 import re
-import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 import yaml
+from workflow_skeleton import make_skeleton, run_snakemake
 
 ROOT = Path(__file__).resolve().parents[1]
 PROFILES = ROOT / "workflow" / "profiles"
@@ -82,25 +79,12 @@ def test_every_heavy_rule_of_the_workflow_has_resources():
 
 
 def _toy_workflow(tmp: Path) -> Path:
-    root = tmp / "repo"
-    for d in ("workflow/rules", "workflow/scripts", "config/schema", "config/studies"):
-        (root / d).mkdir(parents=True)
-    shutil.copy(ROOT / "Snakefile", root)
-    for rel in ("workflow/rules/common.smk", "config/config.yaml", "config/schema/config.schema.yaml"):
-        shutil.copy(ROOT / rel, root / rel)
-    (root / "workflow" / "rules" / "toy.smk").write_text(RULES)
-    return root
-
-
-def _snakemake(root, *args):
-    env = dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}")
-    return subprocess.run([sys.executable, "-m", "snakemake", *args], cwd=root, env=env,
-                          capture_output=True, text=True, timeout=120)
+    return make_skeleton(tmp, {"workflow/rules/toy.smk": RULES})
 
 
 def test_default_profile_dry_run(tmp_path):
     root = _toy_workflow(tmp_path)
-    proc = _snakemake(root, "--profile", str(PROFILES / "default"), "-n")
+    proc = run_snakemake(root, "--profile", str(PROFILES / "default"), "-n")
     assert proc.returncode == 0, proc.stderr
     assert re.search(r"multirev_ot\s+1", proc.stdout + proc.stderr)
 
@@ -109,7 +93,7 @@ def test_default_profile_dry_run(tmp_path):
                     reason="install the 'slurm' extra: pip install -e .[slurm]")
 def test_slurm_profile_dry_run(tmp_path):
     root = _toy_workflow(tmp_path)
-    proc = _snakemake(root, "--profile", str(PROFILES / "slurm"), "-n")
+    proc = run_snakemake(root, "--profile", str(PROFILES / "slurm"), "-n")
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0, out
     assert re.search(r"multirev_ot\s+1", out)

@@ -10,9 +10,9 @@
 The DAG runs in a temporary copy of the workflow skeleton (Snakefile, common.smk, _step.py,
 global config) with small test-only rules written by this file.
 """
+import importlib.util
 import os
 import re
-import shutil
 import signal
 import subprocess
 import sys
@@ -21,15 +21,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from workflow_skeleton import make_skeleton, planned_jobs, run_snakemake, snakemake_env
 
 from spaceopt.artifacts import provenance, read_json, read_npz, write_json, write_npz
 from spaceopt.errors import ArtifactError
 
 ROOT = Path(__file__).resolve().parents[1]
 
-try:
-    import snakemake  # noqa: F401
-except ImportError:  # pragma: no cover
+if importlib.util.find_spec("snakemake") is None:  # pragma: no cover
     pytest.skip("snakemake is not installed (it is a pinned dependency: ./dev setup)", allow_module_level=True)
 
 FAULT_RULES = '''
@@ -105,34 +104,12 @@ if __name__ == "__main__":
 
 
 def make_workflow(tmp: Path) -> Path:
-    root = tmp / "repo"
-    (root / "workflow" / "rules").mkdir(parents=True)
-    (root / "workflow" / "scripts").mkdir(parents=True)
-    (root / "config" / "schema").mkdir(parents=True)
-    (root / "config" / "studies").mkdir(parents=True)
-    shutil.copy(ROOT / "Snakefile", root)
-    for rel in ("workflow/rules/common.smk", "workflow/scripts/_step.py", "config/config.yaml",
-                "config/schema/config.schema.yaml"):
-        shutil.copy(ROOT / rel, root / rel)
-    (root / "workflow" / "rules" / "faults.smk").write_text(FAULT_RULES)
-    (root / "workflow" / "scripts" / "fault_artifact.py").write_text(FAULT_SCRIPT)
-    return root
-
-
-def _env():
-    return dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}",
-                PYTHONDONTWRITEBYTECODE="1")
+    return make_skeleton(tmp, {"workflow/rules/faults.smk": FAULT_RULES,
+                               "workflow/scripts/fault_artifact.py": FAULT_SCRIPT})
 
 
 def snakemake(root: Path, *args, timeout=120) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "snakemake", "--cores", "4", *args], cwd=root, env=_env(),
-                          capture_output=True, text=True, timeout=timeout)
-
-
-def jobs_run(proc) -> dict:
-    text = proc.stdout + proc.stderr
-    m = re.search(r"Job stats:\s*\n\s*job\s+count\s*\n[-\s]+\n(.*?)\n\s*total\s+\d+", text, re.S)
-    return {} if not m else {n: int(c) for n, c in re.findall(r"^\s*(\S+)\s+(\d+)\s*$", m.group(1), re.M)}
+    return run_snakemake(root, "--cores", "4", *args, timeout=timeout)
 
 
 # ----------------------------------------------------------------------------- (a) resume
@@ -141,7 +118,7 @@ def test_killed_run_resumes_and_recomputes_only_unfinished_jobs(tmp_path):
     root = make_workflow(tmp_path)
     res = root / "results" / "faults"
     proc = subprocess.Popen([sys.executable, "-m", "snakemake", "--cores", "4", "results/faults/gather.txt"],
-                            cwd=root, env=_env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            cwd=root, env=snakemake_env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                             start_new_session=True)
     try:
         deadline = time.time() + 60
@@ -165,7 +142,7 @@ def test_killed_run_resumes_and_recomputes_only_unfinished_jobs(tmp_path):
     assert snakemake(root, "--unlock").returncode == 0
     resumed = snakemake(root, "--rerun-incomplete", "--config", "slow_seconds=0", "--", "results/faults/gather.txt")
     assert resumed.returncode == 0, resumed.stderr
-    jobs = jobs_run(resumed)
+    jobs = planned_jobs(resumed)
     jobs.pop("all", None)
     assert jobs == {"slow": 1, "gather": 1}, jobs                 # the finished fast jobs are kept
     assert {i: (res / f"fast_{i}.txt").stat().st_mtime_ns for i in (1, 2, 3)} == fast_mtimes

@@ -14,23 +14,21 @@ Then, with ``snakemake -n --rerun-triggers params input code mtime``:
 The study rules of the real workflow follow the same pattern (docs/conventions.md); a toy
 study keeps the test fast (< 20 s) and independent of the studies' own solvers.
 """
+import importlib.util
 import os
 import re
-import shutil
 import subprocess
-import sys
 import textwrap
 import time
 from pathlib import Path
 
 import pytest
 import yaml
+from workflow_skeleton import make_skeleton, planned_jobs, run_snakemake
 
 ROOT = Path(__file__).resolve().parents[1]
 
-try:
-    import snakemake  # noqa: F401
-except ImportError:  # pragma: no cover
+if importlib.util.find_spec("snakemake") is None:  # pragma: no cover
     pytest.skip("snakemake is not installed (it is a pinned dependency: ./dev setup)", allow_module_level=True)
 
 TRIGGERS = ["--rerun-triggers", "params", "input", "code", "mtime", "--"]  # "--": targets follow
@@ -115,42 +113,19 @@ with open(out, "w", newline="") as fh:
 
 def make_workflow(tmp: Path) -> Path:
     """A copy of the workflow skeleton plus the toy study; returns its root."""
-    root = tmp / "repo"
-    (root / "workflow" / "rules").mkdir(parents=True)
-    (root / "workflow" / "scripts").mkdir(parents=True)
-    (root / "config" / "schema").mkdir(parents=True)
-    (root / "config" / "studies").mkdir(parents=True)
-    shutil.copy(ROOT / "Snakefile", root)
-    for rel in ("workflow/rules/common.smk", "workflow/rules/report.smk", "workflow/scripts/_step.py",
-                "workflow/scripts/scoreboard.py", "config/config.yaml", "config/schema/config.schema.yaml",
-                "config/studies/report.yaml", "config/schema/report.schema.yaml", "config/errata.yaml"):
-        shutil.copy(ROOT / rel, root / rel)
-    shutil.copytree(ROOT / "src", root / "src", ignore=shutil.ignore_patterns("__pycache__", "*.egg-info"))
-    (root / "config" / "studies" / "toy.yaml").write_text(yaml.safe_dump(TOY_CONFIG))
-    (root / "workflow" / "rules" / "toy.smk").write_text(TOY_RULES)
-    (root / "workflow" / "scripts" / "toy_solve.py").write_text(TOY_SOLVE)
-    (root / "workflow" / "scripts" / "toy_table.py").write_text(TOY_TABLE)
-    return root
+    files = ("workflow/rules/report.smk", "workflow/scripts/scoreboard.py", "config/studies/report.yaml",
+             "config/schema/report.schema.yaml", "config/errata.yaml")
+    return make_skeleton(tmp, {"config/studies/toy.yaml": yaml.safe_dump(TOY_CONFIG),
+                               "workflow/rules/toy.smk": TOY_RULES,
+                               "workflow/scripts/toy_solve.py": TOY_SOLVE,
+                               "workflow/scripts/toy_table.py": TOY_TABLE}, files=files, with_src=True)
 
 
 def snakemake(root: Path, *args, check=True, timeout=120) -> subprocess.CompletedProcess:
-    env = dict(os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}",
-               PYTHONDONTWRITEBYTECODE="1")
-    proc = subprocess.run([sys.executable, "-m", "snakemake", "--cores", "2", *args], cwd=root, env=env,
-                          capture_output=True, text=True, timeout=timeout)
+    proc = run_snakemake(root, "--cores", "2", *args, timeout=timeout)
     if check and proc.returncode != 0:
         raise AssertionError(f"snakemake {' '.join(args)} failed ({proc.returncode}):\n{proc.stdout}\n{proc.stderr}")
     return proc
-
-
-def planned_jobs(proc) -> dict:
-    """{rule: count} from the 'Job stats' table of a (dry) run; {} when nothing is to be done."""
-    text = proc.stdout + proc.stderr
-    m = re.search(r"Job stats:\s*\n\s*job\s+count\s*\n[-\s]+\n(.*?)\n\s*total\s+\d+", text, re.S)
-    if not m:
-        assert "Nothing to be done" in text, text
-        return {}
-    return {name: int(n) for name, n in re.findall(r"^\s*(\S+)\s+(\d+)\s*$", m.group(1), re.M)}
 
 
 def planned_wildcards(proc, rule: str) -> list[str]:
