@@ -65,12 +65,82 @@ def _rank(study, section_order):
     return (len(section_order), study)
 
 
-def _figure_tex(path) -> str:
+def _image_size(path):
+    """(width, height) of a PNG in pixels or of a PDF's first MediaBox in points; None if unknown."""
+    import re
+    import struct
+
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(200_000)
+    except OSError:
+        return None
+    if head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR":
+        return struct.unpack(">II", head[16:24])
+    m = re.search(rb"/MediaBox\s*\[\s*([-\d.]+)\s+([-\d.]+)\s+([-\d.]+)\s+([-\d.]+)\s*\]", head)
+    if m:
+        x0, y0, x1, y1 = (float(v) for v in m.groups())
+        return (x1 - x0, y1 - y0)
+    return None
+
+
+def _is_small(path) -> bool:
+    """A figure small and square enough to stand beside another (half the text width)."""
+    size = _image_size(path)
+    if not size or size[1] <= 0:
+        return False
+    w, h = size
+    limit = 1000 if str(path).endswith(".png") else 480      # pixels at 150 dpi ~ points
+    return w <= limit and w / h <= 1.45
+
+
+def _caption(path, study) -> str:
     name = Path(path).stem.replace("_", " ")
+    return (f"\\caption{{Study \\texttt{{{latex_escape(study)}}}: {latex_escape(name)} "
+            f"(\\texttt{{{breakable(latex_escape(path))}}}).}}")
+
+
+def _figure_tex(path, study="") -> str:
     return "\n".join([r"\begin{figure}[htbp]\centering",
                       f"\\includegraphics[width=0.9\\linewidth,height=0.4\\textheight,keepaspectratio]{{{path}}}",
-                      f"\\caption{{{latex_escape(name)} (\\texttt{{{breakable(latex_escape(path))}}}).}}",
-                      r"\end{figure}"])
+                      _caption(path, study), r"\end{figure}"])
+
+
+def _figure_pair_tex(a, b, study="") -> str:
+    """Two small figures side by side, each with its own caption."""
+    out = [r"\begin{figure}[htbp]\centering"]
+    for i, path in enumerate((a, b)):
+        out += [r"\begin{minipage}[t]{0.48\linewidth}\centering",
+                f"\\includegraphics[width=\\linewidth,height=0.3\\textheight,keepaspectratio]{{{path}}}",
+                _caption(path, study), r"\end{minipage}" + (r"\hfill" if i == 0 else "")]
+    out.append(r"\end{figure}")
+    return "\n".join(out)
+
+
+def _group(path) -> str:
+    return Path(path).stem.split("_", 1)[0]
+
+
+def figures_tex(figures, study="") -> list[str]:
+    """Figure floats: consecutive small figures of one group (name prefix) go in pairs."""
+    out, pending = [], None
+    for f in figures:
+        if _is_small(f):
+            if pending is not None and _group(pending) == _group(f):
+                out.append(_figure_pair_tex(pending, f, study))
+                pending = None
+                continue
+            if pending is not None:
+                out.append(_figure_tex(pending, study))
+            pending = f
+            continue
+        if pending is not None:
+            out.append(_figure_tex(pending, study))
+            pending = None
+        out.append(_figure_tex(f, study))
+    if pending is not None:
+        out.append(_figure_tex(pending, study))
+    return out
 
 
 def auto_section_tex(study, repro=(), tables=(), figures=()) -> str:
@@ -87,8 +157,7 @@ def auto_section_tex(study, repro=(), tables=(), figures=()) -> str:
                        r"information only; every value is listed in Table~\ref{tab:scoreboard}." + "\n")
     for t in tables:
         out += [f"% table {t}", r"\begin{center}\small", f"\\input{{{t}}}", r"\end{center}"]
-    for f in figures:
-        out.append(_figure_tex(f))
+    out += figures_tex(figures, study)
     out.append(r"\clearpage")
     return "\n".join(out) + "\n"
 
@@ -308,7 +377,7 @@ def _short(v) -> str:
 
 
 def _fmt_s(x) -> str:
-    if x is None or (isinstance(x, float) and math.isnan(x)):
+    if x is None or (isinstance(x, float) and math.isnan(x)) or x < 0:     # < 0: cold - warm of a shared cache
         return "--"
     return f"{x:.3g}"
 

@@ -105,9 +105,9 @@ def fmt_published(text: str) -> str:
 
 
 def fmt_ours(text: str, published: str = "") -> str:
-    """Our value with two significant digits more than the published one (6 to 10 in all)."""
+    """Our value with one significant digit more than the published one (6 to 10 in all)."""
     n = sig_digits(published)
-    return fmt_number(text, min(10, max(6, (n or 6) + 2)))
+    return fmt_number(text, min(10, max(6, (n or 6) + 1)))
 
 
 def fmt_rel(text: str) -> str:
@@ -190,9 +190,9 @@ def to_latex(rows: list[dict], summary: list[dict]) -> str:
 
 # Column layout of the longtable: fixed widths (fractions of \linewidth) so that long values
 # wrap inside their cell instead of widening the table. Notes go below the table, numbered.
-_LT_COLS = [("case", 0.12, "l"), ("quantity", 0.14, "l"), ("unit", 0.05, "l"), ("published", 0.10, "r"),
-            ("ours", 0.10, "r"), ("rel_diff", 0.075, "r"), ("tolerance", 0.075, "l"), ("status", 0.05, "l"),
-            ("ref", 0.16, "l")]
+_LT_COLS = [("case", 0.115, "l"), ("quantity", 0.13, "l"), ("unit", 0.055, "l"), ("published", 0.11, "r"),
+            ("ours", 0.11, "r"), ("rel_diff", 0.075, "r"), ("tolerance", 0.075, "l"), ("status", 0.055, "l"),
+            ("ref", 0.145, "l")]
 _LT_NOTE = 0.025
 
 
@@ -201,6 +201,8 @@ def _cell(d: dict, k: str) -> str:
         return _STATUS_TEX.get(d[k], latex_escape(d[k]))
     if k == "published" and d[k] == "held back":
         return r"\textit{held back}"
+    if k in ("published", "ours", "rel_diff") and sig_digits(d[k]) is not None:
+        return r"\mbox{" + latex_escape(d[k]) + "}"          # a number never breaks at its minus sign
     return breakable(latex_escape(d[k]))
 
 
