@@ -114,9 +114,10 @@ def fmt_rel(text: str) -> str:
     if text in ("", None):
         return ""
     try:
-        return f"{float(text):.2e}"
+        x = float(text)
     except ValueError:
         return str(text)
+    return f"{x:.2e}" if math.isfinite(x) else "--"        # published 0: no relative difference
 
 
 DISPLAY = [("case", "case"), ("quantity", "quantity"), ("unit", "unit"), ("published", "published"),
