@@ -142,7 +142,7 @@ def _fails_tex(rows: list[dict]) -> list[str]:
     out = [r"Outside the tolerance (the notes of Table~\ref{tab:scoreboard} and Section~\ref{sec:errata} "
            r"give the readings tested):", r"\begin{itemize}\small\raggedright\setlength{\itemsep}{0pt}"]
     for r in fails:
-        unit = f"~{latex_escape(r['unit'])}" if r["unit"] else ""
+        unit = f"~{latex_escape(r['unit'])}" if r["unit"] not in ("", "nondim", "fraction") else ""
         out.append(f"\\item \\texttt{{{breakable(latex_escape(r['case']))}}}, "
                    f"\\texttt{{{breakable(latex_escape(r['quantity']))}}}: published "
                    f"{breakable(latex_escape(fmt_published(r['published'])))}{unit}, ours "
