@@ -303,7 +303,7 @@ _QUANTITY_TEX = {"T_min_N": r"$T_{min}$ [N]", "tof_days": r"$\Delta t$ [d]"}
 
 
 def _cell_tex(case: str) -> str:
-    """``L0_200_n2`` as ``$L_0 = 200^\circ$, 2 rev``."""
+    r"""``L0_200_n2`` as ``$L_0 = 200^\circ$, 2 rev``."""
     m = re.fullmatch(r"L0_([-0-9.e+]+)_n([0-9.e+]+)", case)
     return _tex(case) if m is None else f"$L_0 = {m.group(1)}^\\circ$, {m.group(2)} rev"
 
