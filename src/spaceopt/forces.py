@@ -60,7 +60,7 @@ import yaml
 from .constants import MU_MOON, MU_SUN
 from .ephemeris import ChebyshevEphemeris, load_ephemeris
 from .errors import ConfigError
-from .frames import earth_rotation, icrs_to_itrs, EarthRotation
+from .frames import EarthRotation, earth_angle, earth_rotation, to_icrs, to_itrs
 
 EGM96_FILE = Path(__file__).parent / "data" / "egm96_4x4.yaml"
 MAX_DEGREE = 4
@@ -104,58 +104,55 @@ def geopotential(r_itrs, C, S, gm, radius, degree: int = 4, order: int = 4):
     r_itrs: (3,) Earth-fixed position [m]; C, S: fully normalized coefficients, square arrays of
     size >= degree+1. With numpy C, S (the normal case) the coefficients are compile-time
     constants and zero terms (S_n0, ...) are skipped; jax arrays also work (traced).
-    degree, order: static Python ints. Formula and recursion: module docstring.
+    degree, order: static Python ints. Formula and recursion: module docstring, evaluated on the
+    unit vector (x, y, z)/r (one rsqrt, no division in the traced code; the recursion ratios
+    (2n-1)/(n-m), (n+m-1)/(n-m) and N_nm C_nm are folded into Python constants):
+        U = (GM/r) sum_n (a_e/r)^n sum_m N_nm A_nm(u) (C_nm c_m + S_nm s_m),
+        c_m + i s_m = ((x + i y)/r)^m.
 
     Why scalar code and not a vectorized form: this function is differentiated three times by
     the solver (field -> sensitivities). A dense-polynomial variant (monomial cube contracted with
     a coefficient tensor) compiled slower and ran ~15x slower on CPU than this unrolled scalar
-    recursion, which XLA fuses into one kernel.
+    recursion, which XLA fuses into few kernels.
     """
     static = isinstance(C, np.ndarray) and isinstance(S, np.ndarray)
     x, y, z = r_itrs[0], r_itrs[1], r_itrs[2]
-    r = jnp.sqrt(x * x + y * y + z * z)
-    u = z / r
-    inv_r = 1.0 / r
-    cm, sm = [None], [None]                                    # (x + i y)^m, m >= 1
-    c_prev, s_prev = None, None
-    for m in range(1, order + 1):
-        if m == 1:
-            c_prev, s_prev = x, y
-        else:
-            c_prev, s_prev = x * c_prev - y * s_prev, x * s_prev + y * c_prev
-        cm.append(c_prev)
-        sm.append(s_prev)
+    inv_r = jax.lax.rsqrt(x * x + y * y + z * z)
+    xh, yh, u = x * inv_r, y * inv_r, z * inv_r
+    cm, sm = [None, xh], [None, yh]                            # ((x + i y)/r)^m, m >= 1
+    for m in range(2, order + 1):
+        cm.append(xh * cm[m - 1] - yh * sm[m - 1])
+        sm.append(xh * sm[m - 1] + yh * cm[m - 1])
     A = {}                                                     # A_nm(u) = d^m P_n / du^m
     for m in range(0, order + 1):
         A[(m, m)] = float(math.prod(range(1, 2 * m, 2)))      # (2m-1)!!, a constant
         if m + 1 <= degree:
-            A[(m + 1, m)] = (2 * m + 1) * A[(m, m)] * u
+            A[(m + 1, m)] = ((2 * m + 1) * A[(m, m)]) * u
         for n in range(m + 2, degree + 1):
-            A[(n, m)] = ((2 * n - 1) * u * A[(n - 1, m)] - (n + m - 1) * A[(n - 2, m)]) / (n - m)
+            A[(n, m)] = (((2 * n - 1) / (n - m)) * u * A[(n - 1, m)]
+                         - ((n + m - 1) / (n - m)) * A[(n - 2, m)])
     total = 0.0
     ar = radius * inv_r
     arn = ar
     for n in range(2, degree + 1):
         arn = arn * ar                                         # (a_e / r)^n
         inner = 0.0
-        inv_rm = 1.0                                           # 1 / r^m
         for m in range(0, min(n, order) + 1):
-            if m > 0:
-                inv_rm = inv_rm * inv_r
             cnm, snm = C[n, m], S[n, m]
             if static:
                 cnm, snm = float(cnm), float(snm)
                 if cnm == 0.0 and snm == 0.0:
                     continue
+            nrm = _norm(n, m)
             if m == 0:
-                term = cnm
+                term = nrm * cnm
             elif static and snm == 0.0:
-                term = cnm * cm[m]
+                term = (nrm * cnm) * cm[m]
             elif static and cnm == 0.0:
-                term = snm * sm[m]
+                term = (nrm * snm) * sm[m]
             else:
-                term = cnm * cm[m] + snm * sm[m]
-            inner = inner + (_norm(n, m) * term) * A[(n, m)] * inv_rm
+                term = (nrm * cnm) * cm[m] + (nrm * snm) * sm[m]
+            inner = inner + term * A[(n, m)]
         total = total + arn * inner
     return gm * inv_r * total
 
@@ -305,14 +302,14 @@ def acceleration_terms(r, t, model: PerturbationModel) -> dict:
     t = jnp.asarray(t, dtype=jnp.float64)
     out = {}
     if model.gravity != "none":
-        M = icrs_to_itrs(t, model.rot)
-        r_f = M @ r
+        theta = earth_angle(t, model.rot)
+        r_f = to_itrs(r, theta, model.rot)                    # M(t) r, elementwise (frames.py)
         if model.gravity == "j2":
-            out["j2"] = M.T @ j2_acceleration(r_f, model.gm, model.j2, model.radius)
+            out["j2"] = to_icrs(j2_acceleration(r_f, model.gm, model.j2, model.radius), theta, model.rot)
         else:
             a_f = geopotential_acceleration(r_f, np.array(model.cs[0]), np.array(model.cs[1]),
                                             model.gm, model.radius, model.degree, model.order)
-            out["geopotential"] = M.T @ a_f
+            out["geopotential"] = to_icrs(a_f, theta, model.rot)
     if model.bodies:
         pos = dict(zip(("moon", "sun"), model.eph.positions(t)))
         for i, b in enumerate(model.bodies):
