@@ -30,6 +30,21 @@ def test_matrix_matches_erfa_assembly(rot, days):
     assert np.max(np.abs(M @ M.T - np.eye(3))) < 1e-15
 
 
+@pytest.mark.parametrize("days", [0.0, 5.0, 330.0])
+def test_elementwise_rotation_equals_matrix(rot, days):
+    """to_itrs / to_icrs (what the forces use, no 3x3 product) = M v and M^T v, with derivatives."""
+    t = jnp.float64(float(rot.epoch) + days * 86400.0)
+    v = jnp.array([7.1e6, -3.2e6, 1.9e6])
+    M = F.icrs_to_itrs(t, rot)
+    th = F.earth_angle(t, rot)
+    assert np.allclose(F.to_itrs(v, th, rot), M @ v, rtol=0, atol=1e-15 * 8e6)
+    assert np.allclose(F.to_icrs(v, th, rot), M.T @ v, rtol=0, atol=1e-15 * 8e6)
+    assert np.allclose(F.to_icrs(F.to_itrs(v, th, rot), th, rot), v, rtol=0, atol=1e-15 * 8e6)
+    d_el = jax.jacfwd(lambda tt: F.to_itrs(v, F.earth_angle(tt, rot), rot))(t)
+    d_mat = jax.jacfwd(lambda tt: F.icrs_to_itrs(tt, rot) @ v)(t)
+    assert np.allclose(d_el, d_mat, rtol=1e-13, atol=0)
+
+
 def test_epoch_matrix_equals_full_sofa_chain():
     """At t0 both options equal SOFA's full ICRS->ITRS (xp = yp = 0) up to the TIO locator s'
     (-47 microarcsec/century * T = 4.9e-11 rad in 2021), which the frozen model drops."""
