@@ -241,7 +241,7 @@ def errata_tex(entries: list[dict]) -> str:
         group = [e for e in entries if e["kind"] == kind]
         if not group:
             continue
-        out += ["", f"\\subsection*{{{titles[kind]}}}", r"\begin{enumerate}\small"]
+        out += ["", f"\\subsection*{{{titles[kind]}}}", r"\begin{enumerate}\small\setlength{\emergencystretch}{3em}"]
         for e in group:
             item = [f"\\item[\\textbf{{{latex_escape(e['id'])}}}] \\textit{{{e['source']}, {e['location']}.}}"]
             if e.get("printed"):
