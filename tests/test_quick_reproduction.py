@@ -93,6 +93,7 @@ def test_paper_pdf_holds_the_scoreboard_of_every_study(quick):
     for s in summary:   # the summary line of each study, with its row count, is in the PDF
         name = s["study"].replace("_", r"[_\s]?")
         assert re.search(rf"{name}\s+{s['total']}\s", text), (s, text[:3000])
+    assert "Quick profile" in text     # the title page says which profile built it
     for heading in ("Reproduction scoreboard", "Errata", "Performance"):
         assert re.search(heading, text, re.I), heading
 

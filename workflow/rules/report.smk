@@ -189,13 +189,14 @@ rule paper:
         results=RESULTS,
         build=f"{PAPER_DIR}/build",
         epoch=config["report"]["paper"]["source_date_epoch"],
+        note=config["report"]["paper"].get("profile_note", ""),
     log:
         f"{RESULTS}/logs/report/paper.log",
     benchmark:
         f"{RESULTS}/benchmarks/rules/paper.tsv"
     shell:
         "{PY} {input.script} --tex paper/paper.tex --results {params.results} --build {params.build} "
-        "--out {output.pdf} --epoch {params.epoch} 2> {log} || {{ tail -n1 {log} >&2; exit 1; }}"
+        "--out {output.pdf} --epoch {params.epoch} --note {params.note:q} 2> {log} || {{ tail -n1 {log} >&2; exit 1; }}"
 
 
 ALL_TARGETS += [f"{REPORT_DIR}/scoreboard.csv"]

@@ -19,6 +19,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _step import run_step  # noqa: E402
 
 from spaceopt.errors import ArtifactError, ConfigError  # noqa: E402
+from spaceopt.report.paper import latex_escape  # noqa: E402
 
 
 def first_error(log_path: Path) -> str:
@@ -33,6 +34,11 @@ def first_error(log_path: Path) -> str:
     return "see the log"
 
 
+def profile_note(note: str) -> str:
+    """``\\def\\profilenote{...}`` for a non-empty note (LaTeX-escaped), else nothing."""
+    return f"\\def\\profilenote{{{latex_escape(note)}}}" if note.strip() else ""
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tex", required=True)
@@ -40,6 +46,7 @@ def main(argv=None):
     ap.add_argument("--build", required=True)
     ap.add_argument("--out", required=True)
     ap.add_argument("--epoch", type=int, required=True)
+    ap.add_argument("--note", default="", help="profile note printed under the title (plain text)")
     a = ap.parse_args(argv)
     latexmk = shutil.which("latexmk")
     if latexmk is None:
@@ -53,7 +60,7 @@ def main(argv=None):
                max_print_line="1000")
     results = a.results.rstrip("/") or "."
     cmd = [latexmk, "-pdf", "-interaction=nonstopmode", "-halt-on-error", "-file-line-error",
-           f"-outdir={build}", f"-usepretex=\\def\\resultsdir{{{results}}}", str(tex)]
+           f"-outdir={build}", f"-usepretex=\\def\\resultsdir{{{results}}}{profile_note(a.note)}", str(tex)]
     proc = subprocess.run(cmd, env=env, capture_output=True, text=True, errors="replace")
     sys.stderr.write(proc.stdout[-20000:])
     sys.stderr.write(proc.stderr[-20000:])
