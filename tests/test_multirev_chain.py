@@ -117,3 +117,11 @@ def test_fixed_time_lp_at_the_free_optimum_has_zero_p_t(e1):
     assert abs(c_fixed["p_t"]) < 1e-9
     for k in ("p_p", "p_ex", "p_ey", "p_ix", "p_iy", "p_LK"):
         assert math.isclose(c_fixed[k], c_free[k], rel_tol=1e-7, abs_tol=1e-12), k
+
+
+def test_ot_via_tmin_route_reaches_the_blend_solution(e1):
+    """LP -> T_min -> OT (T_min -> OT homotopy, no LP -> OT blend) lands on the same OT 15 N
+    extremal as the (3.3.1) blend: the route E5 needs (its blend folds)."""
+    ot = chain.solve_ot_from_tmin(e1["tmin"], 15.0, chain.ContinuationOptions(verbose=False))
+    assert ot.stats["route"] == "lp-tmin-ot"
+    np.testing.assert_allclose(ot.z, e1["ot"].z, rtol=1e-6, atol=1e-9)

@@ -142,14 +142,18 @@ def test_arclength_passes_a_fold_in_tau():
     τ = 0 (z = 1) and reaches z³ − 3z = 4 at τ = 1 (z ≈ 2.1958); τ-continuation cannot."""
     import numpy as np
     from spaceopt.errors import ConvergenceError
-    from spaceopt.indirect.continuation import Continuation, ContinuationOptions
+    from spaceopt.indirect.continuation import (ArclengthContinuation, ArclengthOptions, Continuation,
+                                                ContinuationOptions)
 
-    def ev(z, tau, final=False):
-        return z**3 - 3 * z + 2 - 6 * tau, np.array([[3 * z[0] ** 2 - 3]]), np.array([-6.0]), True
+    def ev(z, tau):
+        return (np.atleast_1d(z**3 - 3 * z + 2 - 6 * tau), np.array([[3 * z[0] ** 2 - 3]]),
+                np.array([-6.0]), 0, True)
 
-    z, stats = P.arclength_run(None, np.array([-2.0]), None, "fold", evaluate=ev, verbose=False)
+    arc = ArclengthContinuation(ev, ArclengthOptions(verbose=False))
+    z, _ = arc.run(np.array([-2.0]))
     assert z[0] ** 3 - 3 * z[0] == pytest.approx(4.0, abs=1e-9)
     assert z[0] == pytest.approx(2.1958233, abs=1e-6)
-    cont = Continuation(lambda zz, t: (*ev(zz, t)[:3], 0, True), ContinuationOptions(verbose=False))
+    assert arc.stats.steps > 3 and min(h["tau"] for h in arc.stats.history[3:]) < 0.5   # went back
+    cont = Continuation(ev, ContinuationOptions(verbose=False))
     with pytest.raises(ConvergenceError):
         cont.run(np.array([-2.0]))

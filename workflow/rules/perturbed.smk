@@ -43,12 +43,12 @@ def pt_config_for(case, model):
 
 
 def pt_warm_source(case, model):
-    """The first model of a case's list is solved by the chain (LP -> OT); every later model by a
-    warm start from the previous one (a Newton homotopy at the new force model, followed in
-    arclength): E9 J2 -> 4x4 -> 4x4 + Moon + Sun; E5/E7 unperturbed -> 4x4 + Moon + Sun (the
-    LP -> perturbed-OT homotopy of E5 folds back to tau < 0)."""
+    """The first model of a case's list is solved by the chain from the zero guess; every later
+    model too when the case says model_start: chain (E5, E7), else by a warm start from the
+    previous model (a Newton homotopy at the new force model, followed in arclength):
+    E9 J2 -> 4x4 -> 4x4 + Moon + Sun."""
     models = PT["cases"][case]["models"]
-    if model == models[0]:
+    if model == models[0] or PT["cases"][case].get("model_start", "previous") == "chain":
         return None
     return models[models.index(model) - 1]
 

@@ -28,11 +28,13 @@ def main(sm):
     try:
         if sm.params.source == "chain":
             cc = cfg["cases"][case]
+            route = cc.get("route", "lp-ot")
             lp, sol = P.solve_for(tr, label, bool(cc.get("lp_perturbed", False)),
                                   cc.get("homotopy_path", cfg["numerics"].get("homotopy_path", "arclength")),
-                                  blend_ref=cc.get("blend_ref"))
-            extra = {"continued_from": "chain", "lp": {k: lp.extra[k] for k in ("J_LP_m2s3", "dv_m_s", "tof_s")},
-                     "lp_perturbed": lp.shooting.model.perturbed}
+                                  blend_ref=cc.get("blend_ref"), route=route)
+            extra = {"continued_from": "chain", "route": route,
+                     "lp": {k: lp.extra[k] for k in ("J_LP_m2s3", "dv_m_s", "tof_s")},
+                     "lp_perturbed": lp.shooting.model.perturbed, **sol.extra}
         else:
             start = P.load(sm.input.start)
             sol = P.warm_start(start, tr, label)

@@ -12,6 +12,9 @@
    to ε_f spends most steps in its last 10⁻³ of τ); or, from a converged OT solution,
    continuation in thrust at ε = ε_f (used near T_min, where the dissertation notes that the
    engine never switches off).
+
+Every homotopy is followed in τ (:class:`~.continuation.Continuation`) or, where the path has a
+turning point in τ, in arclength (``path='arclength'``, :class:`~.continuation.ArclengthContinuation`).
 """
 from __future__ import annotations
 
@@ -27,7 +30,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import hamiltonians as hm
-from .continuation import Continuation, ContinuationOptions
+from .continuation import ArclengthContinuation, ArclengthOptions, Continuation, ContinuationOptions
 from .flow import Model, field as flow_field
 from .shooting import Shooting, initial_state, shoot
 from .transfer import Transfer
@@ -36,11 +39,14 @@ ORBIT_COSTATES = (hm.P, hm.EX, hm.EY, hm.IX, hm.IY, hm.LK)
 LP_SHOOTING = Shooting(Model("lp"), ORBIT_COSTATES)     # free-time LP layout
 
 
-def lp_shooting(tr: Transfer) -> Shooting:
-    """Unperturbed LP layout; with a fixed time of flight p_t joins the unknowns."""
-    if tr.tof_s is None:
+def lp_shooting(tr: Transfer, perturbed: bool = False) -> Shooting:
+    """LP layout: unperturbed by default; with a fixed time of flight, or with the
+    perturbations on (``perturbed``, the transfer's force model), p_t joins the unknowns."""
+    if perturbed and not tr.perturbed:
+        raise ValueError("a perturbed LP needs a transfer with a perturbation model")
+    if tr.tof_s is None and not perturbed:
         return LP_SHOOTING
-    return Shooting(Model("lp"), ORBIT_COSTATES + (hm.TIME,), fixed_time=True)
+    return Shooting(Model("lp", "lp", perturbed), ORBIT_COSTATES + (hm.TIME,), fixed_time=tr.tof_s is not None)
 
 
 def shooting_for(kind: str, homotopy: str, tr: Transfer) -> Shooting:
@@ -84,23 +90,57 @@ class Solution:
 PATH_RTOL = 1e-9     # integration tolerance while following the path; the end point uses sh.rtol
 
 
-def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None):
-    opt = options or ContinuationOptions()
-    opt = ContinuationOptions(**{**opt.__dict__, "label": label})
+PATHS = {"tau": Continuation, "arclength": ArclengthContinuation}
+
+
+def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None, path: str = "tau"):
+    """Follow the Newton homotopy of ``sh`` from z0 (τ = 0) to τ = 1, in τ or in arclength.
+
+    ``options`` of the wrong kind for the path are re-typed keeping only the label, so that the
+    arclength path gets its own step defaults (:class:`~.continuation.ArclengthOptions`).
+    """
+    if path not in PATHS:
+        raise ValueError(f"homotopy path {path!r}: expected one of {sorted(PATHS)}")
+    cls = PATHS[path]
+    if path == "tau":
+        opt = ContinuationOptions() if options is None or isinstance(options, ArclengthOptions) else options
+        opt = ContinuationOptions(**{**opt.__dict__, "label": label,
+                                     **({"verbose": options.verbose} if options is not None else {})})
+    else:
+        opt = options if isinstance(options, ArclengthOptions) else ArclengthOptions()
+        opt = ArclengthOptions(**{**opt.__dict__, "label": label,
+                                  **({"verbose": options.verbose} if options is not None else {})})
     rtol, atol = max(sh.rtol, PATH_RTOL), max(sh.atol, PATH_RTOL * 0.1)
-    cont = Continuation(lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm, rtol, atol), opt,
-                        polish=lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm))
+    cont = cls(lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm, rtol, atol), opt,
+               polish=lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm))
     t0 = time.perf_counter()
     z, _ = cont.run(z0)
     stats = cont.stats.as_dict()
     stats["wall_time_s"] = time.perf_counter() - t0
+    if path != "tau":
+        stats["path"] = path
     return np.asarray(z), stats
 
 
-def solve_lp(tr: Transfer, options=None, label="lp") -> Solution:
-    """Minimum-power solve from the zero guess with K_f = ΔL."""
+def _merge_stats(first: str, stats: dict, stats_eps: dict) -> dict:
+    """Statistics of a homotopy followed by the ε stage: both, and their summed counters."""
+    return {first: stats, "eps": stats_eps,
+            **{k: stats[k] + stats_eps[k] for k in stats
+               if k != "final_residual" and isinstance(stats[k], (int, float)) and k in stats_eps},
+            "final_residual": stats_eps["final_residual"]}
+
+
+def solve_lp(tr: Transfer, options=None, label="lp", perturbed: bool = False) -> Solution:
+    """Minimum-power solve from the zero guess with K_f = ΔL.
+
+    ``perturbed``: with the transfer's perturbations on (p_t an unknown, p_t(K_f) = 0). Used
+    where the transfer only exists thanks to a perturbation (§4.2.3: the node is moved by the J2
+    precession; the zero guess is then the perturbed coast, which already drifts the node by
+    almost the required ΔΩ). The LP → OT/T_min homotopies then start off their paths (their
+    τ = 0 end is the unperturbed LP) and the Newton homotopy carries the initial residual.
+    """
     prm = tr.params()
-    sh = lp_shooting(tr)
+    sh = lp_shooting(tr, perturbed)
     z0 = np.zeros(sh.size)
     z0[sh.kf_index] = tr.delta_L
     z, stats = _run(sh, z0, prm, label, options)
@@ -147,19 +187,48 @@ def existence_verdict(tmin: Solution, thrust_N: float) -> dict:
                         f"revolutions would be needed")}
 
 
-def solve_ot(lp: Solution, thrust_N: float, options=None, label="ot") -> Solution:
-    """LP → OT homotopy (3.3.1) at thrust T."""
+def solve_ot(lp: Solution, thrust_N: float, options=None, label="ot", blend_ref: float | None = None,
+             path: str = "tau") -> Solution:
+    """LP → OT homotopy (3.3.1) at thrust T, then ε log-uniform from ε₁ to ε_f (in τ).
+
+    ``blend_ref``: W_ref of the blend weights (default :func:`blend_reference`; 1 gives the
+    printed (3.3.1) weights). ``path``: how the LP → OT path is followed, 'tau' or 'arclength'
+    (through turning points in τ).
+    """
     tr = lp.transfer
-    prm = {**tr.params(thrust=thrust_N), "blend_ref": jnp.asarray(blend_reference(lp))}
+    bref = blend_reference(lp) if blend_ref is None else float(blend_ref)
+    prm = {**tr.params(thrust=thrust_N), "blend_ref": jnp.asarray(bref)}
     sh = shooting_for("ot", "lp", tr)
-    z, stats = _run(sh, start_vector(sh, lp.doubled_costates(), lp.K_f), prm, label + " LP->OT", options)
+    z, stats = _run(sh, start_vector(sh, lp.doubled_costates(), lp.K_f), prm, label + " LP->OT", options, path)
     sh_eps = shooting_for("ot", "eps", tr)
     if tr.eps_blend > tr.eps_final:
         z, stats_eps = _run(sh_eps, z, prm, label + " eps", options)
-        stats = {"lp_to_ot": stats, "eps": stats_eps,
-                 **{k: stats[k] + stats_eps[k] for k in stats if k != "final_residual"},
-                 "final_residual": stats_eps["final_residual"]}
+        stats = _merge_stats("lp_to_ot", stats, stats_eps)
     return Solution("ot", sh_eps, z, tr.params(thrust=thrust_N), tr, stats, thrust_N=thrust_N)
+
+
+def solve_ot_from_tmin(tmin: Solution, thrust_N: float, options=None, label="ot", path: str = "tau") -> Solution:
+    """T_min → OT at thrust T ≥ T_min (route LP → T_min → OT; no LP → OT blend), then ε to ε_f.
+
+    Homotopy (flow.Model('tmin', 'ot')): the T_min problem with the propellant weight of the OT
+    cost ("+1" in (2.1.9)) growing as τ, the −½T² term and the p_LK shift fading as 1 − τ, the
+    throttle 1 − τ + τ δ(S, ε₁), and the thrust residual moving from p_T(K_f) = 0 (T free,
+    τ = 0: the converged T_min solution, so the path starts on it) to T = T_OT (τ = 1: OT at
+    ε₁). The OT costates at T ↓ T_min grow without bound (the OT problem degenerates to the
+    single always-on transfer, with zero propellant weight), which is why the path starts from the
+    T_min problem rather than from an OT problem at T_min. Then ε log-uniform from ε₁ to ε_f.
+    """
+    tr = tmin.transfer
+    prm = tr.params(thrust=thrust_N)
+    sh = shooting_for("tmin", "ot", tr)
+    z, stats = _run(sh, np.asarray(tmin.z, float), prm, label + " Tmin->OT", options, path)
+    sh_eps = shooting_for("ot", "eps", tr)
+    z = z[:sh_eps.size]                                  # drop T (= T_OT at τ = 1)
+    if tr.eps_blend > tr.eps_final:
+        z, stats_eps = _run(sh_eps, z, prm, label + " eps", options)
+        stats = _merge_stats("tmin_to_ot", stats, stats_eps)
+    stats["route"] = "lp-tmin-ot"
+    return Solution("ot", sh_eps, z, prm, tr, stats, thrust_N=thrust_N)
 
 
 def continue_in_params(sol: Solution, prm_to: dict, options=None, label="param") -> Solution:
@@ -212,23 +281,24 @@ def _dense(model, y0, K_f, prm, n, max_steps):
 
 
 def lp_integrals(sol: Solution) -> dict:
-    """J_LP = ∫ k|A|² dK and V = ∫ k1 k2 |A| dK along the LP solution, plus Δt (SI)."""
+    """J_LP = ∫ k|A|² dK and V = ∫ k1 k2 |A| dK along the LP solution, plus Δt (SI); with the
+    field the solution was solved with (perturbed or not)."""
     tr = sol.transfer
     y0 = initial_state(sol.shooting, jnp.asarray(sol.z), sol.prm)
-    yf = np.asarray(_lp_integrals(y0, sol.K_f, sol.prm, sol.shooting.max_steps))
+    yf = np.asarray(_lp_integrals(sol.shooting.model, y0, sol.K_f, sol.prm, sol.shooting.max_steps))
     return {"J_LP_m2s3": float(yf[-2]) * tr.du**2 / tr.tu**3, "dv_m_s": float(yf[-1]) * tr.vu,
             "tof_s": float(yf[hm.TIME]) * tr.tu}
 
 
-@partial(jax.jit, static_argnums=3)
-def _lp_integrals(y0, K_f, prm, max_steps):
+@partial(jax.jit, static_argnums=(0, 4))
+def _lp_integrals(model, y0, K_f, prm, max_steps):
     n = hm.N_STATE
 
     def rhs(K, Y, args):
         y = Y[:-2]
         g = hm.geometry(K, y[:n])
         A = hm.primer(y[:n], y[n:], g)
-        return jnp.concatenate([flow_field(Model("lp"), K, y, 1.0, args),
+        return jnp.concatenate([flow_field(model, K, y, 1.0, args),
                                 jnp.stack([g["k"] * jnp.dot(A, A), g["k1"] * g["k2"] * hm.safe_norm(A)])])
 
     out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, K_f, None,

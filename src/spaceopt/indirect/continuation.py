@@ -172,3 +172,109 @@ class Continuation:
         self._log(f"done: |F|={nF:.2e} steps={self.stats.steps} rejected={self.stats.rejected} "
                   f"jacobians={self.stats.jacobians} ({self.stats.wall_time_s:.1f} s)")
         return z, J
+
+
+@dataclass
+class ArclengthOptions(ContinuationOptions):
+    """Step sizes measured in arclength of u = (z, τ) (``h_min`` absolute, not scaled by the span)."""
+    h_init: float = 0.02
+    h_min: float = 1e-9
+    h_max: float = 0.3
+    max_steps: int = 400
+
+
+class ArclengthContinuation(Continuation):
+    """Follow the same Newton homotopy f(z, τ) = (1 − τ) b by pseudo-arclength (passes folds in τ).
+
+    The τ-parametrised corrector of :class:`Continuation` cannot pass a turning point of the
+    path (dτ/ds = 0), where it stalls with a vanishing step. Here u = (z, τ) is continued in
+    arclength s (Keller): the tangent t spans the null space of [∂f/∂z, ∂f/∂τ + b] (oriented
+    along the previous tangent, initially towards increasing τ), the predictor is u + h t and the
+    Newton corrector solves (f − (1 − τ) b, t·(u − u_pred)) = 0. Step control as in
+    :class:`Continuation`. When a step crosses τ = 1 the end point is interpolated linearly and
+    polished at τ = 1 (``polish``). Same ``evaluate`` signature as :class:`Continuation`; here
+    τ₀ = 0, τ₁ = 1.
+    """
+
+    def __init__(self, evaluate, options: ContinuationOptions | None = None, polish=None):
+        super().__init__(evaluate, options or ArclengthOptions(), polish)
+
+    def run(self, z0, tau0=0.0, tau1=1.0, b=None):
+        if (tau0, tau1) != (0.0, 1.0):
+            raise ValueError("arclength continuation runs from tau = 0 to 1")
+        t_start = time.perf_counter()
+        opt = self.opt
+        z = np.asarray(z0, dtype=float).copy()
+        tau = 0.0
+        f, J, ftau, ok = self._eval(z, tau)
+        if not ok:
+            raise self._diagnose("integration failed at the starting point", z, tau, 0.0, f)
+        b = f.copy() if b is None else np.asarray(b, float)
+        n = z.size
+
+        def tangent(J, ftau, prev=None):
+            _, _, vt = np.linalg.svd(np.hstack([J, (ftau + b)[:, None]]))
+            t = vt[-1]
+            if (prev is not None and np.dot(t, prev) < 0) or (prev is None and t[-1] < 0):
+                t = -t
+            return t
+
+        t = tangent(J, ftau)
+        h, F = opt.h_init, f - b
+        while True:
+            if self.stats.steps + self.stats.rejected > opt.max_steps:
+                raise self._diagnose("too many continuation steps", z, tau, h, F)
+            u = np.concatenate([z, [tau]])
+            up = u + h * t
+            uc, accepted, prev, iters = up.copy(), False, None, 0
+            for iters in range(1, opt.max_corrector + 1):
+                fc, Jc, ftc, okc = self._eval(uc[:n], uc[n])
+                if not okc or not np.all(np.isfinite(fc)):
+                    break
+                Fc = fc - (1.0 - uc[n]) * b
+                nF = _norm(Fc)
+                if nF <= opt.tol_step:
+                    accepted = True
+                    break
+                if prev is not None and nF > 0.5 * prev:
+                    break
+                prev = nF
+                M = np.vstack([np.hstack([Jc, (ftc + b)[:, None]]), t[None, :]])
+                uc = uc + np.linalg.lstsq(M, -np.concatenate([Fc, [np.dot(t, uc - up)]]), rcond=None)[0]
+            if not accepted:
+                self.stats.rejected += 1
+                h *= 0.3
+                self._log(f"  rejected at tau={tau:.6f}, h -> {h:.3g}")
+                if h < opt.h_min:
+                    raise self._diagnose("step size underflow", z, tau, h, F)
+                continue
+            self.stats.steps += 1
+            if uc[n] >= 1.0:                        # crossed τ = 1: interpolate, then polish
+                lam = (1.0 - tau) / (uc[n] - tau)
+                z, tau = z + lam * (uc[:n] - z), 1.0
+                self.stats.history.append({"tau": 1.0, "h": h, "iters": iters, "residual": nF})
+                break
+            t = tangent(Jc, ftc, t)
+            z, tau, F = uc[:n], uc[n], Fc
+            self.stats.history.append({"tau": tau, "h": h, "iters": iters, "residual": nF})
+            self._log(f"s-step {self.stats.steps}: tau={tau:.6f} h={h:.3g} corr={iters} |F|={nF:.2e} "
+                      f"dtau/ds={t[-1]:+.3f} jac={self.stats.jacobians}")
+            h = min(opt.h_max, h * {1: 2.0, 2: 1.5, 3: 1.2}.get(iters, 0.8))
+        # polish at τ = 1
+        f, J, ftau, ok = self._eval(z, 1.0, final=True)
+        F, nF = f, _norm(f)
+        for _ in range(opt.max_final):
+            if nF <= opt.tol_final:
+                break
+            z_new = z + np.linalg.lstsq(J, -F, rcond=None)[0]
+            f_new, J_new, _, ok = self._eval(z_new, 1.0, final=True)
+            if not ok or not np.all(np.isfinite(f_new)) or _norm(f_new) > 2.0 * nF:
+                break
+            z, F, J, nF = z_new, f_new, J_new, _norm(f_new)
+        self.stats.residual = nF
+        self.stats.wall_time_s = time.perf_counter() - t_start
+        if nF > opt.tol_final * 1e3:
+            raise self._diagnose("final Newton polish did not converge", z, 1.0, h, F)
+        self._log(f"done (arclength): |F|={nF:.2e} steps={self.stats.steps} rejected={self.stats.rejected} "
+                  f"jacobians={self.stats.jacobians} ({self.stats.wall_time_s:.1f} s)")
+        return z, J

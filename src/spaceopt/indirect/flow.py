@@ -50,7 +50,12 @@ class Model:
     kind: 'lp' (LP, τ unused — Newton homotopy), 'ot' or 'tmin'.
     homotopy (for 'ot'): 'lp' — τ blends LP→OT and ε(τ) = 1 − τ + ε₁ τ (3.3.1);
                          'eps' — pure OT with ε = ε₁^(1−τ) ε_f^τ (log-uniform smoothing).
-    homotopy (for 'tmin'): 'lp' — τ blends LP→T_min (3.4.1).
+    homotopy (for 'tmin'): 'lp' — τ blends LP→T_min (3.4.1);
+                           'ot' — τ carries T_min → OT (:func:`hamiltonians.h_tmin_ot`): the
+                           propellant weight grows from 0 to 1, δ = 1 − τ + τ δ(S, ε₁), and the
+                           thrust residual moves from p_T(K_f) = 0 to T = T_OT (shooting).
+    homotopy 'pert' (for 'ot'): the pure OT problem at ε_f with the perturbations scaled by τ
+        (unperturbed → perturbed solution, the perturbation switch of (3.3.1) on its own).
     homotopy 'param' (any kind): the pure problem with problem data moved linearly from
         ``prm['path_from']`` to ``prm['path_to']`` (thrust, L0, L_f, …) — warm starts along a
         sweep or a thrust family.
@@ -95,13 +100,22 @@ def ot_delta(model: Model, K, y, tau, prm):
     return hm.smooth_delta(S, eps), S, prm_t
 
 
-def _pert_shift(model, y):
-    return -0.5 * y[hm.THRUST] ** 2 if model.kind == "tmin" else 0.0
+def _pert_shift(model, y, tau=0.0):
+    if model.kind != "tmin":
+        return 0.0
+    return -(1.0 - tau if model.homotopy == "ot" else 1.0) * 0.5 * y[hm.THRUST] ** 2
+
+
+def tmin_ot_delta(K, y, tau, prm):
+    """Throttle of the T_min → OT homotopy: 1 − τ + τ δ(S, ε₁) (always on at τ = 0)."""
+    n = hm.N_STATE + 1
+    S = hm.switching_tmin_ot(K, y[:n], y[n:], prm, tau)
+    return 1.0 - tau + tau * hm.smooth_delta(S, prm["eps_blend"]), S
 
 
 def _pert_weight(model, tau):
-    """τ in the LP→target blends, 1 in the pure problems."""
-    return tau if (model.kind != "lp" and model.homotopy == "lp") else 1.0
+    """τ in the LP→target blends and the perturbation-strength homotopy 'pert', 1 in the pure problems."""
+    return tau if (model.kind != "lp" and model.homotopy in ("lp", "pert")) else 1.0
 
 
 def field(model: Model, K, y, tau, prm):
@@ -109,7 +123,7 @@ def field(model: Model, K, y, tau, prm):
     prm = params_at(model, prm, tau)
     g = _unperturbed_field(model, K, y, tau, prm)
     if model.perturbed:
-        shift = _pert_shift(model, y)
+        shift = _pert_shift(model, y, tau)
         g = g + _pert_weight(model, tau) * hamiltonian_field(
             lambda K_, x_, l_: hm.h_pert(K_, x_, l_, prm, shift), K, y, model.n)
     return g
@@ -125,6 +139,9 @@ def _unperturbed_field(model: Model, K, y, tau, prm):
         if model.homotopy != "lp":
             return g_tgt
         W = hm.primer_magnitude(K, y[:n], y[n:])
+    elif model.kind == "tmin" and model.homotopy == "ot":
+        delta, _ = tmin_ot_delta(K, y, tau, prm)
+        return hamiltonian_field(lambda K_, x_, l_: hm.h_tmin_ot(K_, x_, l_, prm, tau, delta), K, y, n)
     elif model.kind == "tmin":
         g_tgt = hamiltonian_field(partial(hm.h_tmin, prm=prm), K, y, n)
         if model.homotopy != "lp":
@@ -149,7 +166,7 @@ def hamiltonian(model: Model, K, y, tau, prm):
     h = _unperturbed_hamiltonian(model, K, y, tau, prm)
     if model.perturbed:
         n = model.n
-        h = h + _pert_weight(model, tau) * hm.h_pert(K, y[:n], y[n:], prm, _pert_shift(model, y))
+        h = h + _pert_weight(model, tau) * hm.h_pert(K, y[:n], y[n:], prm, _pert_shift(model, y, tau))
     return h
 
 
@@ -161,6 +178,8 @@ def _unperturbed_hamiltonian(model: Model, K, y, tau, prm):
     if model.kind == "ot":
         delta, _, prm_t = ot_delta(model, K, y, tau, prm)
         h_t = hm.h_ot(K, x, lam, prm_t, delta)
+    elif model.homotopy == "ot":
+        return hm.h_tmin_ot(K, x, lam, prm, tau, tmin_ot_delta(K, y, tau, prm)[0])
     else:
         h_t = hm.h_tmin(K, x, lam, prm)
     if model.homotopy != "lp":

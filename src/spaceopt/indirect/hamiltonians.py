@@ -112,6 +112,28 @@ def h_tmin(K, x, lam, prm):
     return -0.5 * T**2 + T * g["k1"] * switching_tmin(K, x, lam, prm) + g["k1"] * lam[TIME]
 
 
+def h_tmin_ot(K, x, lam, prm, tau, delta):
+    """T_min → OT homotopy (route LP → T_min → OT), T a state, throttle δ given (frozen):
+
+        H_τ = −(1 − τ) ½T² + δ T k1 [k2 |A_τ|/m − (p_m + τ)/c] + k1 p_t,
+
+    A_τ = A at p_LK − (1 − τ) T²/2. τ = 0 with δ = 1: the T_min Hamiltonian (2.3.8); τ = 1: the
+    OT Hamiltonian (2.1.9) (the cost weight of the propellant, the "+1", grows from 0 to 1).
+    """
+    g = geometry(K, x)
+    T = x[THRUST]
+    A = primer(x, lam, g, -(1.0 - tau) * 0.5 * T**2)
+    S = g["k2"] * safe_norm(A) / x[MASS] - (lam[MASS] + tau) / prm["c"]
+    return -(1.0 - tau) * 0.5 * T**2 + delta * T * g["k1"] * S + g["k1"] * lam[TIME]
+
+
+def switching_tmin_ot(K, x, lam, prm, tau):
+    """Switching function of :func:`h_tmin_ot`."""
+    g = geometry(K, x)
+    A = primer(x, lam, g, -(1.0 - tau) * 0.5 * x[THRUST] ** 2)
+    return g["k2"] * safe_norm(A) / x[MASS] - (lam[MASS] + tau) / prm["c"]
+
+
 def primer_magnitude(K, x, lam, shift=0.0):
     g = geometry(K, x)
     return safe_norm(primer(x, lam, g, shift))

@@ -82,14 +82,16 @@ def initial_state(sh: Shooting, z, prm):
     return jnp.concatenate([x, lam])
 
 
-def terminal_residual(sh: Shooting, yf, Kf, prm):
+def terminal_residual(sh: Shooting, yf, Kf, prm, tau=1.0):
     n = sh.model.n
     r = [yf[:5] - prm["xf"], jnp.atleast_1d(yf[hm.LK] + Kf - prm["Lf"])]
     if hm.MASS in sh.free_costates:
         r.append(jnp.atleast_1d(yf[n + hm.MASS]))
     if hm.TIME in sh.free_costates:
         r.append(jnp.atleast_1d(yf[hm.TIME] - prm["tf"] if sh.fixed_time else yf[n + hm.TIME]))
-    if sh.has_thrust:
+    if sh.has_thrust and sh.model.homotopy == "ot":      # T_min → OT: p_T(K_f) = 0 → T = T_OT
+        r.append(jnp.atleast_1d((1.0 - tau) * yf[n + hm.THRUST] + tau * (yf[hm.THRUST] - prm["thrust"])))
+    elif sh.has_thrust:
         r.append(jnp.atleast_1d(yf[n + hm.THRUST]))
     return jnp.concatenate(r)
 
@@ -124,7 +126,7 @@ def _shoot(sh: Shooting, z, tau, prm, rtol, atol):
     gf = field(sh.model, z[kf], yf, tau, prm)
 
     def term(yy, kk, t):
-        return terminal_residual(sh, yy, kk, params_at(sh.model, prm, t))
+        return terminal_residual(sh, yy, kk, params_at(sh.model, prm, t), t)
 
     r_term = term(yf, z[kf], tau)
     dr_dy, dr_dK, dr_dtau = jax.jacfwd(term, argnums=(0, 1, 2))(yf, z[kf], tau)

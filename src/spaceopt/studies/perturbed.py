@@ -32,15 +32,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import artifacts, constants
-from ..elements import apsides_to_ae
-from ..errors import ConfigError
+from ..errors import ConfigError, ConvergenceError
 from ..indirect import chain
 from ..indirect import hamiltonians as hm
 from ..indirect.chain import Solution
 from ..indirect.continuation import ContinuationOptions
-from ..indirect.flow import Model
-from ..indirect.shooting import Shooting
 from ..indirect.transfer import Orbit, Transfer
 from . import multirev
 
@@ -50,7 +46,7 @@ AE_KEYS = ("a_km", "e")
 ANGLE_KEYS = ("i_deg", "raan_deg", "argp_deg")
 CASE_KEYS = ("initial", "final", "L0_deg", "n_rev", "m0_kg", "isp_s", "thrust_N", "epoch_utc",
              "ephemeris", "models")
-OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref")
+OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref", "route", "model_start")
 
 
 def _number(cfg, key, path, positive=False):
@@ -130,239 +126,38 @@ def transfer_from_config(pc: dict, case: str, model: str, *, ephemeris: str | No
 
 # ---------------------------------------------------------------- solves
 
+ROUTES = ("lp-ot", "lp-tmin-ot")
+
+
 def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False, path: str = "arclength",
-              options: ContinuationOptions | None = None, blend_ref: float | None = None) -> tuple[Solution, Solution]:
-    """LP from the zero guess → OT (perturbed when ``tr`` is); returns (lp, ot).
+              options: ContinuationOptions | None = None, blend_ref: float | None = None,
+              route: str = "lp-ot") -> tuple[Solution, Solution]:
+    """The chain from the zero guess → OT (perturbed when ``tr`` is); returns (lp, ot).
 
-    ``path``: 'arclength' follows the LP → OT homotopy in arclength (passes turning points;
-    the 5-rev HEO case E5 has one at τ ≈ 0.17 for 0.5 N), 'tau' uses ``chain.solve_ot``.
-    ``lp_perturbed``: solve the LP with the perturbations on (see :func:`solve_lp_perturbed`);
-    the LP → OT homotopy then starts off its path (its τ = 0 end is the unperturbed LP) and the
-    Newton homotopy carries the initial residual.
+    ``route``: 'lp-ot' — LP → OT by the blend (3.3.1) (``chain.solve_ot``); 'lp-tmin-ot' — LP →
+    T_min (3.4.1) → existence verdict → OT by the T_min → OT homotopy
+    (``chain.solve_ot_from_tmin``), which avoids the blend (E5: its path folds). Perturbations
+    are switched on by the (3.4.1) τ in the second route, by the (3.3.1) τ in the first.
+    ``path``: how the homotopies are followed, 'tau' or 'arclength' (passes turning points).
+    ``lp_perturbed``: solve the LP with the perturbations on (``chain.solve_lp(perturbed=True)``).
+    ``blend_ref``: W_ref of the (3.3.1) blend weights (None: the mean LP primer).
     """
-    if lp_perturbed and tr.perturbed:
-        lp = solve_lp_perturbed(tr, options, label=f"{label}/lp")
-    else:
-        lp = chain.solve_lp(tr, options, label=f"{label}/lp")
-    if path == "arclength":
-        ot = solve_ot_arclength(lp, tr.thrust, label=f"{label}/ot", blend_ref=blend_ref)
-    elif path == "tau" and blend_ref is None:
-        ot = chain.solve_ot(lp, tr.thrust, options, label=f"{label}/ot")
-    elif path == "tau":
-        ot = solve_ot_tau(lp, tr.thrust, blend_ref, options, label=f"{label}/ot")
-    else:
-        raise ConfigError("perturbed.numerics.homotopy_path", path, "expected 'arclength' or 'tau'")
+    if path not in chain.PATHS:
+        raise ConfigError("perturbed.numerics.homotopy_path", path, f"expected one of {sorted(chain.PATHS)}")
+    if route not in ROUTES:
+        raise ConfigError("perturbed.cases.route", route, f"expected one of {', '.join(ROUTES)}")
+    lp = chain.solve_lp(tr, options, label=f"{label}/lp", perturbed=lp_perturbed and tr.perturbed)
+    if route == "lp-ot":
+        ot = chain.solve_ot(lp, tr.thrust, options, label=f"{label}/ot", blend_ref=blend_ref, path=path)
+        return lp, ot
+    tm = chain.solve_tmin(lp, options, label=f"{label}/tmin")
+    verdict = chain.existence_verdict(tm, tr.thrust)
+    if not verdict["exists"]:
+        raise ConvergenceError(f"{label}: {verdict['message']}", {"reason": "T < T_min", **verdict})
+    ot = chain.solve_ot_from_tmin(tm, tr.thrust, options, label=f"{label}/ot", path=path)
+    ot.extra["tmin"] = {"T_min_N": tm.thrust_N, "T0_guess_N": tm.extra.get("T0_N"), "z": tm.z.tolist(),
+                        "K_f_deg": math.degrees(tm.K_f), "solver": tm.stats, "verdict": verdict["message"]}
     return lp, ot
-
-
-def arclength_run(sh: Shooting | None, z0, prm, label: str, h0: float = 0.02, h_max: float = 0.3,
-                  tol_step: float = 1e-4, tol_final: float = 1e-10, max_steps: int = 400,
-                  verbose: bool = True, evaluate=None):
-    """Follow the Newton homotopy f(z, τ) = (1 − τ) b by pseudo-arclength (passes folds in τ).
-
-    The τ-parametrised corrector of :mod:`spaceopt.indirect.continuation` cannot pass a turning
-    point of the path (dτ/ds = 0), where it stalls with a vanishing step. Here u = (z, τ) is
-    continued in arclength s: tangent t = null vector of [∂f/∂z, ∂f/∂τ + b], predictor u + h t,
-    Newton corrector on (f − (1 − τ) b, t·(u − u_pred)) = 0; the step grows or shrinks with the
-    corrector's iterations as in the τ-continuation. At τ ≥ 1 the end point is interpolated and
-    polished at τ = 1. (Should move into spaceopt.indirect.continuation; kept here because that
-    module belongs to another study.) ``evaluate(z, τ, final) -> (f, ∂f/∂z, ∂f/∂τ, ok)``
-    replaces the shooting map (tests use a scalar fold).
-    """
-    import sys
-    import jax.numpy as jnp
-    from ..errors import ConvergenceError
-    from ..indirect.shooting import shoot
-
-    def ev(z, tau, final=False):
-        if evaluate is not None:
-            f, J, ft, ok = evaluate(np.asarray(z), float(tau), final)
-            return np.atleast_1d(f), np.atleast_2d(J), np.atleast_1d(ft), bool(ok)
-        rtol, atol = max(sh.rtol, chain.PATH_RTOL), max(sh.atol, chain.PATH_RTOL * 0.1)
-        tol = {} if final else {"rtol": rtol, "atol": atol}
-        f, J, ft, nst, ok = shoot(sh, jnp.asarray(z), float(tau), prm, **tol)
-        return np.asarray(f), np.asarray(J), np.asarray(ft), bool(ok)
-
-    t_start = time.perf_counter()
-    z = np.asarray(z0, float).copy()
-    tau = 0.0
-    f, J, ft, ok = ev(z, tau)
-    if not ok:
-        raise ConvergenceError(f"{label}: integration failed at the start", {"z": z.tolist()})
-    b = f.copy()
-    n = z.size
-
-    def tangent(J, ft, prev=None):
-        A = np.hstack([J, (ft + b)[:, None]])
-        _, _, vt = np.linalg.svd(A)
-        t = vt[-1]
-        if prev is not None and np.dot(t, prev) < 0:
-            t = -t
-        elif prev is None and t[-1] < 0:
-            t = -t
-        return t
-
-    t = tangent(J, ft)
-    h, steps, jac, rejected = h0, 0, 1, 0
-    history = []
-    while steps + rejected < max_steps:
-        u = np.concatenate([z, [tau]])
-        up = u + h * t
-        uc, accepted, it, prevn = up.copy(), False, 0, None
-        for it in range(1, 5):
-            fc, Jc, ftc, okc = ev(uc[:n], uc[n])
-            jac += 1
-            if not okc or not np.all(np.isfinite(fc)):
-                break
-            F = fc - (1.0 - uc[n]) * b
-            nF = float(np.max(np.abs(F)))
-            if nF <= tol_step:
-                accepted = True
-                break
-            if prevn is not None and nF > 0.5 * prevn:
-                break
-            prevn = nF
-            M = np.vstack([np.hstack([Jc, (ftc + b)[:, None]]), t[None, :]])
-            rhs = -np.concatenate([F, [np.dot(t, uc - up)]])
-            uc = uc + np.linalg.lstsq(M, rhs, rcond=None)[0]
-        if accepted:
-            t_new = tangent(Jc, ftc, t)
-            if uc[n] >= 1.0:                       # crossed τ = 1: interpolate, then polish
-                lam = (1.0 - u[n]) / (uc[n] - u[n])
-                z = u[:n] + lam * (uc[:n] - u[:n])
-                tau = 1.0
-                steps += 1
-                break
-            z, tau, t = uc[:n], uc[n], t_new
-            steps += 1
-            history.append((tau, h, it))
-            if verbose:
-                print(f"[{label}] s-step {steps}: tau={tau:.6f} h={h:.3g} corr={it} |F|={nF:.2e} "
-                      f"dtau/ds={t[-1]:+.3f}", file=sys.stderr, flush=True)
-            h = min(h_max, h * {1: 2.0, 2: 1.5, 3: 1.2}.get(it, 0.8))
-        else:
-            rejected += 1
-            h *= 0.3
-            if verbose:
-                print(f"[{label}]   rejected at tau={tau:.6f}, h -> {h:.3g}", file=sys.stderr, flush=True)
-            if h < 1e-9:
-                raise ConvergenceError(f"{label}: arclength continuation failed at tau={tau:.6g} (step underflow)",
-                                       {"reason": "step underflow", "tau": tau, "z": z.tolist(),
-                                        "history": history[-20:]})
-    else:
-        raise ConvergenceError(f"{label}: too many arclength steps", {"tau": tau, "z": z.tolist()})
-    # polish at τ = 1
-    f, J, ft, ok = ev(z, 1.0, final=True)
-    jac += 1
-    nF = float(np.max(np.abs(f)))
-    for _ in range(12):
-        if nF <= tol_final:
-            break
-        zn = z + np.linalg.lstsq(J, -f, rcond=None)[0]
-        fn, Jn, ftn, okn = ev(zn, 1.0, final=True)
-        jac += 1
-        if not okn or float(np.max(np.abs(fn))) > 2 * nF:
-            break
-        z, f, J, nF = zn, fn, Jn, float(np.max(np.abs(fn)))
-    if nF > tol_final * 1e3:
-        raise ConvergenceError(f"{label}: final Newton polish did not converge (|F|={nF:.2e})",
-                               {"reason": "polish", "residual": nF, "z": z.tolist()})
-    stats = {"steps": steps, "rejected_steps": rejected, "jacobian_evaluations": jac,
-             "final_residual": nF, "wall_time_s": time.perf_counter() - t_start, "path": "arclength"}
-    if verbose:
-        print(f"[{label}] done (arclength): |F|={nF:.2e} steps={steps} jac={jac}", file=sys.stderr, flush=True)
-    return z, stats
-
-
-def solve_ot_tau(lp: Solution, thrust_N: float, blend_ref: float, options=None, label="ot") -> Solution:
-    """``chain.solve_ot`` with a given blend weight reference W_ref (1 = the printed (3.3.1)
-    weights). E5 (5-rev HEO, 0.5 N): with W_ref = the mean LP primer the τ-path turns back at
-    τ ≈ 0.172 (a fold; 1 N: τ ≈ 0.079); with W_ref = 1 it runs to τ ≈ 0.972 and stalls there
-    (step 3e-6 after 77 Jacobians): also a fold, so E5 needs the arclength path."""
-    import jax.numpy as jnp
-    tr = lp.transfer
-    prm = {**tr.params(thrust=thrust_N), "blend_ref": jnp.asarray(blend_ref)}
-    sh = chain.shooting_for("ot", "lp", tr)
-    z, st = chain._run(sh, chain.start_vector(sh, lp.doubled_costates(), lp.K_f), prm, label + " LP->OT", options)
-    sh_eps = chain.shooting_for("ot", "eps", tr)
-    stats = {"lp_to_ot": st, "blend_ref": blend_ref}
-    if tr.eps_blend > tr.eps_final:
-        z, st_eps = chain._run(sh_eps, z, prm, label + " eps", options)
-        stats["eps"] = st_eps
-        stats["jacobian_evaluations"] = st["jacobian_evaluations"] + st_eps["jacobian_evaluations"]
-        stats["final_residual"] = st_eps["final_residual"]
-    return Solution("ot", sh_eps, z, tr.params(thrust=thrust_N), tr, stats, thrust_N=thrust_N)
-
-
-def solve_ot_arclength(lp: Solution, thrust_N: float, label="ot", blend_ref: float | None = None) -> Solution:
-    """LP → OT (3.3.1) followed by pseudo-arclength, then the ε stage (τ-continuation)."""
-    import jax.numpy as jnp
-    tr = lp.transfer
-    bref = chain.blend_reference(lp) if blend_ref is None else blend_ref
-    prm = {**tr.params(thrust=thrust_N), "blend_ref": jnp.asarray(bref)}
-    sh = chain.shooting_for("ot", "lp", tr)
-    z, st = arclength_run(sh, chain.start_vector(sh, lp.doubled_costates(), lp.K_f), prm, label + " LP->OT")
-    sh_eps = chain.shooting_for("ot", "eps", tr)
-    stats = {"lp_to_ot": st}
-    if tr.eps_blend > tr.eps_final:
-        z, st_eps = chain._run(sh_eps, z, prm, label + " eps", None)
-        stats["eps"] = st_eps
-        stats["jacobian_evaluations"] = st["jacobian_evaluations"] + st_eps["jacobian_evaluations"]
-        stats["final_residual"] = st_eps["final_residual"]
-    return Solution("ot", sh_eps, z, tr.params(thrust=thrust_N), tr, stats, thrust_N=thrust_N)
-
-
-def lp_shooting(perturbed: bool) -> Shooting:
-    """LP layout; the perturbed LP adds p_t to the unknowns (and p_t(K_f) = 0)."""
-    if not perturbed:
-        return chain.LP_SHOOTING
-    return Shooting(Model("lp", "lp", True), chain.ORBIT_COSTATES + (hm.TIME,))
-
-
-def solve_lp_perturbed(tr: Transfer, options=None, label="lp") -> Solution:
-    """Minimum-power solve *with* the perturbations, from the zero guess (K_f = ΔL).
-
-    Used where the transfer only exists thanks to a perturbation (E9: the node is moved by the
-    J2 precession, spec 02-multirev §6): the zero guess is then the perturbed coast, which
-    already drifts the node by almost the required ΔΩ, whereas the unperturbed LP must buy the
-    whole plane change with thrust (~1 km/s, beyond what 1 N delivers in 5 d).
-    """
-    sh = lp_shooting(tr.perturbed)
-    prm = tr.params()
-    z0 = np.zeros(sh.size)
-    z0[sh.kf_index] = tr.delta_L
-    z, stats = chain._run(sh, z0, prm, label, options)
-    sol = Solution("lp", sh, z, prm, tr, stats)
-    sol.extra.update(lp_integrals(sol))
-    return sol
-
-
-def lp_integrals(sol: Solution) -> dict:
-    """J_LP, ΔV and Δt (SI) along an LP solution, with the field the solution was solved with."""
-    import diffrax
-    import jax.numpy as jnp
-    from ..indirect.flow import field as flow_field
-    from ..indirect.shooting import initial_state
-
-    tr = sol.transfer
-    model = sol.shooting.model
-    n = model.n
-    y0 = initial_state(sol.shooting, jnp.asarray(sol.z), sol.prm)
-
-    def rhs(K, Y, args):
-        y = Y[:-2]
-        g = hm.geometry(K, y[:n])
-        A = hm.primer(y[:n], y[n:], g)
-        return jnp.concatenate([flow_field(model, K, y, 1.0, sol.prm),
-                                jnp.stack([g["k"] * jnp.dot(A, A), g["k1"] * g["k2"] * hm.safe_norm(A)])])
-
-    out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, sol.K_f, None,
-                              jnp.concatenate([y0, jnp.zeros(2)]),
-                              stepsize_controller=diffrax.PIDController(rtol=1e-11, atol=1e-12),
-                              max_steps=sol.shooting.max_steps)
-    yf = np.asarray(out.ys[-1])
-    return {"J_LP_m2s3": float(yf[-2]) * tr.du**2 / tr.tu**3, "dv_m_s": float(yf[-1]) * tr.vu,
-            "tof_s": float(yf[hm.TIME]) * tr.tu}
 
 
 def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None) -> Solution:
@@ -382,42 +177,25 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None) -> Solu
     return out
 
 
-def perturb_from_unperturbed(sol: Solution, tr_to: Transfer, label: str) -> Solution:
+def perturb_from_unperturbed(sol: Solution, tr_to: Transfer, label: str, path: str = "tau") -> Solution:
     """Unperturbed OT solution → the perturbed OT problem of ``tr_to`` (same orbits, thrust).
 
-    z gains p_t(0) = 0; the Newton homotopy f_p(z, τ) = (1 − τ) f_p(z₀) at the *perturbed*
-    problem (pure OT at ε_f, nothing moved) is followed in arclength. Used for E5, whose
-    LP → perturbed-OT homotopy folds back to τ < 0 (τ ≈ 0.53 with W_ref = 1).
+    z gains p_t(0) = 0; the perturbations are switched on by τ (flow.Model('ot', 'pert'):
+    pure OT at ε_f plus τ H_p — the perturbation switch of (3.3.1) on its own), followed in τ or
+    in arclength. (The Newton homotopy f_p(z, τ) = (1 − τ) f_p(z₀) at the perturbed problem
+    folds back to τ < 0 for E5, at τ ≈ 0.957.)
     """
     sh_p = chain.shooting_for("ot", "eps", tr_to)
     names_u = sol.shooting.unknown_names()
     z = np.asarray([0.0 if n == "p_t" else float(sol.z[names_u.index(n)]) for n in sh_p.unknown_names()])
-    prm = {**tr_to.params(thrust=sol.thrust_N), "path_from": {}, "path_to": {}}
-    sh_param = dataclasses.replace(sh_p, model=dataclasses.replace(sh_p.model, homotopy="param"))
-    z, stats = arclength_run(sh_param, z, prm, label)
-    stats["continued_from"] = "unperturbed OT (Newton homotopy at the perturbed problem)"
-    return Solution("ot", sh_p, z, tr_to.params(thrust=sol.thrust_N), tr_to, stats, thrust_N=sol.thrust_N)
+    prm = tr_to.params(thrust=sol.thrust_N)
+    sh_pert = dataclasses.replace(sh_p, model=dataclasses.replace(sh_p.model, homotopy="pert"))
+    z, stats = chain._run(sh_pert, z, prm, label, None, path=path)
+    stats["continued_from"] = "unperturbed OT (perturbations switched on by tau)"
+    return Solution("ot", sh_p, z, prm, tr_to, stats, thrust_N=sol.thrust_N)
 
 
-def load(json_path) -> Solution:
-    """Rebuild a converged (possibly perturbed) Solution from its JSON artifact."""
-    data = artifacts.read_json(json_path)
-    t = data["transfer"]
-    tr = Transfer(Orbit(**t["initial"]), Orbit(**t["final"]),
-                  **{k: v for k, v in t.items() if k not in ("initial", "final")})
-    m = data["model"]
-    free = tuple(m["free_costates"])
-    perturbed = hm.TIME in free
-    sh = Shooting(Model(m["kind"], m["homotopy"], perturbed), free)
-    thrust = data["thrust_N"]
-    nan = thrust is None or (isinstance(thrust, float) and math.isnan(thrust))
-    prm = tr.params(thrust=None if nan else thrust)
-    sol = Solution(data["scalars"]["stage"], sh, np.asarray(data["z"]), prm, tr, data["solver"],
-                   thrust_N=float("nan") if nan else thrust)
-    if sol.stage == "lp":
-        sol.extra.update({k: data["scalars"][k] for k in ("J_LP_m2s3", "dv_m_s")})
-        sol.extra["tof_s"] = data["scalars"]["tof_days"] * DAY
-    return sol
+load = multirev.load     # rebuilds perturbed solutions too (model.perturbed in the artifact)
 
 
 def save(sol: Solution, json_path, cfg: dict, wall_time_s: float, extra: dict | None = None,
