@@ -101,3 +101,36 @@ def test_homotopy_end_points():
     g0 = field(Model("ot", "lp"), K, y, 0.0, PRM)
     g_lp_half = hamiltonian_field(lambda K_, x_, l_: hm.h_lp(K_, x_, l_, prm), K, y, 8)
     np.testing.assert_allclose(g0, g_lp_half, rtol=1e-13, atol=1e-16)
+
+
+def test_tmin_to_ot_homotopy_end_points():
+    """Model('tmin', 'ot'): τ = 0 is the T_min field (2.3.8); τ = 1 the OT field (2.1.9) at ε₁
+    (the p_T row aside, which no other row sees)."""
+    K, x, lam = random_point(4, n=9)
+    y = jnp.concatenate([x, lam])
+    g0 = field(Model("tmin", "ot"), K, y, 0.0, PRM)
+    g_tmin = hamiltonian_field(lambda K_, x_, l_: hm.h_tmin(K_, x_, l_, PRM), K, y, 9)
+    np.testing.assert_allclose(g0, g_tmin, rtol=1e-12, atol=1e-15)
+    g1 = field(Model("tmin", "ot"), K, y, 1.0, PRM)
+    prm_t = {**PRM, "thrust": x[hm.THRUST]}
+    y8 = jnp.concatenate([x[:8], lam[:8]])
+    delta = hm.smooth_delta(hm.switching_ot(K, x[:8], lam[:8], prm_t), PRM["eps_blend"])
+    g_ot = hamiltonian_field(lambda K_, x_, l_: hm.h_ot(K_, x_, l_, prm_t, delta), K, y8, 8)
+    keep = np.r_[0:8, 9:17]                       # drop the T and p_T rows
+    np.testing.assert_allclose(np.asarray(g1)[keep], g_ot, rtol=1e-12, atol=1e-15)
+
+
+def test_perturbation_strength_homotopy_end_points():
+    """Model('ot', 'pert'): τ scales the perturbation field; τ = 0 unperturbed OT at ε_f,
+    τ = 1 the perturbed OT problem."""
+    from spaceopt.forces import build_model
+    K, x, lam = random_point(5)
+    y = jnp.concatenate([x, lam])
+    prm = {**PRM, "path_from": {}, "path_to": {}, "du": 7.0e6, "tu": 806.0,
+           "pert": build_model({"geopotential": "j2"}, "2021-05-09T12:00:00", None)}
+    g_u = field(Model("ot", "param"), K, y, 0.0, prm)
+    g_p = field(Model("ot", "param", True), K, y, 0.0, prm)
+    assert np.max(np.abs(np.asarray(g_p - g_u))) > 1e-6
+    for tau in (0.0, 0.3, 1.0):
+        np.testing.assert_allclose(field(Model("ot", "pert", True), K, y, tau, prm),
+                                   g_u + tau * (g_p - g_u), rtol=1e-12, atol=1e-15)

@@ -53,8 +53,18 @@ def pt_warm_source(case, model):
     return models[models.index(model) - 1]
 
 
+def pt_fallback_source(case, model):
+    """With model_start: chain and fallback: previous (E5), a chain that does not converge is
+    followed by a warm start from the previous model (reported as such in the artifact)."""
+    cc = PT["cases"][case]
+    models = cc["models"]
+    if model == models[0] or cc.get("model_start", "previous") != "chain" or cc.get("fallback") != "previous":
+        return None
+    return models[models.index(model) - 1]
+
+
 def pt_solve_inputs(w):
-    src = pt_warm_source(w.case, w.model)
+    src = pt_warm_source(w.case, w.model) or pt_fallback_source(w.case, w.model)
     out = {"src": PT_SRC, "eph": pt_ephemeris(w.case, w.model)}
     if src is not None:
         out["start"] = f"{PTDIR}/{w.case}/{src}.json"

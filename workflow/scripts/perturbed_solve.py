@@ -25,24 +25,39 @@ def main(sm):
     label = f"{case}/{model}" + (f"/{kw['epoch_utc'][:10]}" if "epoch_utc" in kw else "") + \
         (f"/n{kw['n_rev']:g}" if "n_rev" in kw else "")
     t0 = time.perf_counter()
+
+    def fail(exc, suffix):
+        artifacts.write_json(out.with_name(out.stem + suffix), {
+            "error": str(exc), "diagnosis": exc.diagnosis,
+            "provenance": artifacts.provenance(cfg, time.perf_counter() - t0)})
+
     try:
         if sm.params.source == "chain":
             cc = cfg["cases"][case]
             route = cc.get("route", "lp-ot")
-            lp, sol = P.solve_for(tr, label, bool(cc.get("lp_perturbed", False)),
-                                  cc.get("homotopy_path", cfg["numerics"].get("homotopy_path", "arclength")),
-                                  blend_ref=cc.get("blend_ref"), route=route)
-            extra = {"continued_from": "chain", "route": route,
-                     "lp": {k: lp.extra[k] for k in ("J_LP_m2s3", "dv_m_s", "tof_s")},
-                     "lp_perturbed": lp.shooting.model.perturbed, **sol.extra}
+            try:
+                lp, sol = P.solve_for(tr, label, bool(cc.get("lp_perturbed", False)),
+                                      cc.get("homotopy_path", cfg["numerics"].get("homotopy_path", "arclength")),
+                                      blend_ref=cc.get("blend_ref"), route=route)
+                extra = {"continued_from": "chain", "route": route,
+                         "lp": {k: lp.extra[k] for k in ("J_LP_m2s3", "dv_m_s", "tof_s")},
+                         "lp_perturbed": lp.shooting.model.perturbed, **sol.extra}
+            except ConvergenceError as exc:
+                if not hasattr(sm.input, "start"):
+                    raise
+                # fallback (case option fallback: previous): the chain's failure stays on record
+                fail(exc, ".chain_failure.json")
+                print(f"[{label}] chain from the zero guess failed ({exc}); warm start from "
+                      f"{sm.input.start}", file=sys.stderr, flush=True)
+                sol = P.warm_start(P.load(sm.input.start), tr, label + "/warm")
+                extra = {"continued_from": str(sm.input.start), "route": route,
+                         "chain_failure": {"error": str(exc), "diagnosis": exc.diagnosis}}
         else:
             start = P.load(sm.input.start)
             sol = P.warm_start(start, tr, label)
             extra = {"continued_from": str(sm.input.start)}
     except ConvergenceError as exc:
-        failure = out.with_name(out.stem + ".failure.json")
-        artifacts.write_json(failure, {"error": str(exc), "diagnosis": exc.diagnosis,
-                                       "provenance": artifacts.provenance(cfg, time.perf_counter() - t0)})
+        fail(exc, ".failure.json")
         raise
     P.save(sol, out, cfg, time.perf_counter() - t0, extra,
            samples_per_rev=cfg["numerics"]["samples_per_rev"])

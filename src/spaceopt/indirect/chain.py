@@ -231,17 +231,17 @@ def solve_ot_from_tmin(tmin: Solution, thrust_N: float, options=None, label="ot"
     return Solution("ot", sh_eps, z, prm, tr, stats, thrust_N=thrust_N)
 
 
-def continue_in_params(sol: Solution, prm_to: dict, options=None, label="param") -> Solution:
+def continue_in_params(sol: Solution, prm_to: dict, options=None, label="param", path: str = "tau") -> Solution:
     """From a converged solution to the same problem with other data (thrust, L0, L_f, …).
 
     ``prm_to`` is a full parameter set (``Transfer.params``); the keys that differ from the
-    solution's are moved linearly in τ, everything else stays.
+    solution's are moved linearly in τ, everything else stays (``path``: 'tau' or 'arclength').
     """
     keys = [k for k in ("thrust", "L0", "Lf", "c") if not np.isclose(sol.prm[k], prm_to[k], rtol=0, atol=0)]
     path = {k: sol.prm[k] for k in keys}
     prm = {**prm_to, "path_from": path, "path_to": {k: prm_to[k] for k in keys}}
     sh = dataclasses.replace(sol.shooting, model=dataclasses.replace(sol.shooting.model, homotopy="param"))
-    z, stats = _run(sh, sol.z, prm, label, options)
+    z, stats = _run(sh, sol.z, prm, label, options, path)
     out = Solution(sol.stage, sol.shooting, z, dict(prm_to), sol.transfer, stats)
     if sol.stage == "tmin":
         out.thrust_N = float(z[-1]) * sol.transfer.force_unit

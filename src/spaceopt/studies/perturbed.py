@@ -46,7 +46,7 @@ AE_KEYS = ("a_km", "e")
 ANGLE_KEYS = ("i_deg", "raan_deg", "argp_deg")
 CASE_KEYS = ("initial", "final", "L0_deg", "n_rev", "m0_kg", "isp_s", "thrust_N", "epoch_utc",
              "ephemeris", "models")
-OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref", "route", "model_start")
+OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref", "route", "model_start", "fallback")
 
 
 def _number(cfg, key, path, positive=False):
@@ -163,27 +163,35 @@ def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False, path: str = 
 def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None) -> Solution:
     """From a converged OT solution to the problem of ``tr_to`` (new date, model or n_rev).
 
-    Same unknowns layout required (perturbed ↔ perturbed). Thrust, L₀, L_f, c move linearly in
-    τ; everything else (the epoch, the force model) is the new problem's from τ = 0 on, and the
-    Newton homotopy f(z, τ) = (1 − τ) b absorbs the initial residual b.
+    Perturbed → perturbed: thrust, L₀, L_f, c move linearly in τ; everything else (the epoch,
+    the force model) is the new problem's from τ = 0 on, and the Newton homotopy
+    f(z, τ) = (1 − τ) b absorbs the initial residual b; followed in τ, and in arclength where
+    the τ-path stalls (a turning point). Unperturbed → perturbed: :func:`perturb_from_unperturbed`.
+    The path used is in ``stats['warm_path']``.
     """
     if sol.transfer.perturbed and not tr_to.perturbed:
         raise ConfigError("warm_start", tr_to.perturbations, "cannot warm-start an unperturbed problem from a perturbed one")
     if not sol.transfer.perturbed and tr_to.perturbed:
         return perturb_from_unperturbed(sol, tr_to, label)
     prm_to = tr_to.params(thrust=sol.thrust_N)
-    out = chain.continue_in_params(sol, prm_to, options, label=label)
+    try:
+        out = chain.continue_in_params(sol, prm_to, options, label=label)
+        out.stats["warm_path"] = "tau"
+    except ConvergenceError as exc:
+        out = chain.continue_in_params(sol, prm_to, None, label=label + " (arclength)", path="arclength")
+        out.stats.update(warm_path="arclength", tau_path_failure=str(exc))
     out.transfer, out.thrust_N = tr_to, sol.thrust_N
     return out
 
 
-def perturb_from_unperturbed(sol: Solution, tr_to: Transfer, label: str, path: str = "tau") -> Solution:
+def perturb_from_unperturbed(sol: Solution, tr_to: Transfer, label: str, path: str = "arclength") -> Solution:
     """Unperturbed OT solution → the perturbed OT problem of ``tr_to`` (same orbits, thrust).
 
     z gains p_t(0) = 0; the perturbations are switched on by τ (flow.Model('ot', 'pert'):
     pure OT at ε_f plus τ H_p — the perturbation switch of (3.3.1) on its own), followed in τ or
-    in arclength. (The Newton homotopy f_p(z, τ) = (1 − τ) f_p(z₀) at the perturbed problem
-    folds back to τ < 0 for E5, at τ ≈ 0.957.)
+    in arclength (default: E5's strength path has an S-shaped pair of folds, τ ≈ 0.318 and
+    0.221; the Newton homotopy f_p(z, τ) = (1 − τ) f_p(z₀) at the perturbed problem folds at
+    τ ≈ 0.957 and runs back to τ < 0).
     """
     sh_p = chain.shooting_for("ot", "eps", tr_to)
     names_u = sol.shooting.unknown_names()

@@ -151,9 +151,22 @@ def ours(tabs: dict, payloads: dict, npzs: dict, budget: dict | None) -> dict:
     return o
 
 
+E5U_OTHER = ("another extremal of the same problem: ours coasts at K = 0 (S(0) < 0) and keeps 0.87 kg more "
+             "than the thesis's, which starts with a burn (printed p_LK(0) < 0); reached by LP -> T_min -> OT, "
+             "the (3.3.1) blend path the thesis followed folds here (tau 0.172 / 0.972), so its extremal was not reached")
+E5P_OTHER = ("the zero-guess chain folds (T_min -> OT, tau 0.286); fallback warm start from our unperturbed extremal "
+             "(perturbation strength in arclength, S-shaped fold pair at tau 0.22-0.32) reaches an extremal ~5 d "
+             "longer: a different extremal, beyond model choices (ERA, UT1=UTC, TDB, EGM96 GM/a_e, central mu)")
 MISS_NOTES = {
-    ("e5_g44_moon_sun", "m_f_kg"): "perturbed: model choices (ERA, UT1=UTC, TDB, EGM96 GM/a_e in the geopotential, central mu 398600.436)",
-    ("e5_g44_moon_sun", "tof_days"): "perturbed: model choices (ERA, UT1=UTC, TDB, EGM96 GM/a_e, central mu)",
+    ("e5_unperturbed", "m_f_kg"): E5U_OTHER,
+    ("e5_unperturbed", "tof_days"): E5U_OTHER,
+    ("e5_unperturbed", "K_f_deg"): E5U_OTHER,
+    ("e5_unperturbed", "initial_burn"): E5U_OTHER,
+    ("e6_unperturbed", "m_f_kg"): E5U_OTHER,
+    ("e6_unperturbed", "tof_days"): E5U_OTHER,
+    ("e5_g44_moon_sun", "m_f_kg"): E5P_OTHER,
+    ("e5_g44_moon_sun", "tof_days"): E5P_OTHER,
+    ("e5_g44_moon_sun", "K_f_deg"): E5P_OTHER,
     ("e9_j2", "tof_days"): "J2 pole = frozen CIP of 9 May 2021 (~0.1 deg from ICRS z); EGM96 J2, a_e, GM",
 }
 
