@@ -125,3 +125,12 @@ def test_ot_via_tmin_route_reaches_the_blend_solution(e1):
     ot = chain.solve_ot_from_tmin(e1["tmin"], 15.0, chain.ContinuationOptions(verbose=False))
     assert ot.stats["route"] == "lp-tmin-ot"
     np.testing.assert_allclose(ot.z, e1["ot"].z, rtol=1e-6, atol=1e-9)
+
+
+def test_thrust_continuation_from_the_ot_solution(e1):
+    """continue_ot_in_thrust (the Table 4.1.3 / E4 route, chain.continue_in_params): 15 -> 16 N
+    converges and m_f grows with T (R19)."""
+    ot16 = chain.continue_ot_in_thrust(e1["ot"], 16.0, chain.ContinuationOptions(verbose=False))
+    assert ot16.thrust_N == 16.0 and ot16.stats["final_residual"] < 1e-9
+    m = lambda sol: sample(sol, 50)["mass_kg"][-1]
+    assert m(ot16) > e1["samples"]["ot"]["mass_kg"][-1]

@@ -238,8 +238,8 @@ def continue_in_params(sol: Solution, prm_to: dict, options=None, label="param",
     solution's are moved linearly in τ, everything else stays (``path``: 'tau' or 'arclength').
     """
     keys = [k for k in ("thrust", "L0", "Lf", "c") if not np.isclose(sol.prm[k], prm_to[k], rtol=0, atol=0)]
-    path = {k: sol.prm[k] for k in keys}
-    prm = {**prm_to, "path_from": path, "path_to": {k: prm_to[k] for k in keys}}
+    frm = {k: sol.prm[k] for k in keys}
+    prm = {**prm_to, "path_from": frm, "path_to": {k: prm_to[k] for k in keys}}
     sh = dataclasses.replace(sol.shooting, model=dataclasses.replace(sol.shooting.model, homotopy="param"))
     z, stats = _run(sh, sol.z, prm, label, options, path)
     out = Solution(sol.stage, sol.shooting, z, dict(prm_to), sol.transfer, stats)
