@@ -167,6 +167,7 @@ MISS_NOTES = {
     ("e5_g44_moon_sun", "m_f_kg"): E5P_OTHER,
     ("e5_g44_moon_sun", "tof_days"): E5P_OTHER,
     ("e5_g44_moon_sun", "K_f_deg"): E5P_OTHER,
+    ("e5_g44_moon_sun", "no_initial_burn"): E5P_OTHER + "; ours starts with a burn, our unperturbed does not",
     ("e9_j2", "tof_days"): "J2 pole = frozen CIP of 9 May 2021 (~0.1 deg from ICRS z); EGM96 J2, a_e, GM",
 }
 
