@@ -235,9 +235,11 @@ def continue_in_params(sol: Solution, prm_to: dict, options=None, label="param",
     """From a converged solution to the same problem with other data (thrust, L0, L_f, …).
 
     ``prm_to`` is a full parameter set (``Transfer.params``); the keys that differ from the
-    solution's are moved linearly in τ, everything else stays (``path``: 'tau' or 'arclength').
+    solution's are moved linearly in τ (thrust, L0, L_f, c, and the departure-epoch offset of a
+    perturbed problem when both carry one), everything else stays (``path``: 'tau' or 'arclength').
     """
-    keys = [k for k in ("thrust", "L0", "Lf", "c") if not np.isclose(sol.prm[k], prm_to[k], rtol=0, atol=0)]
+    keys = [k for k in ("thrust", "L0", "Lf", "c", "epoch_offset_s")
+            if k in sol.prm and k in prm_to and not np.isclose(sol.prm[k], prm_to[k], rtol=0, atol=0)]
     frm = {k: sol.prm[k] for k in keys}
     prm = {**prm_to, "path_from": frm, "path_to": {k: prm_to[k] for k in keys}}
     sh = dataclasses.replace(sol.shooting, model=dataclasses.replace(sol.shooting.model, homotopy="param"))

@@ -154,7 +154,7 @@ def perturbation_tnr(K, x, prm):
 
     Spec 01-methods §1.7 steps 2–4: r, v from the MEE (Appendix B.1), e_r = r/r,
     e_n = r×v/|r×v|, e_t = e_n×e_r; a_p from :func:`spaceopt.forces.perturbing_acceleration`
-    at r·DU and t_TDB = epoch + t·TU, scaled by TU²/DU.
+    at r·DU and t_TDB = epoch [+ epoch_offset_s] + t·TU, scaled by TU²/DU.
     """
     from ..elements import mee_to_cartesian
     from ..forces import perturbing_acceleration
@@ -167,7 +167,9 @@ def perturbation_tnr(K, x, prm):
     e_n = h / jnp.linalg.norm(h)
     e_t = jnp.cross(e_n, e_r)
     model = prm["pert"]
-    a = perturbing_acceleration(r * prm["du"], model.epoch + x[TIME] * prm["tu"], model)
+    # prm['epoch_offset_s'] (optional): departure epoch shifted from the model's (E6 date homotopy)
+    t = model.epoch + prm.get("epoch_offset_s", 0.0) + x[TIME] * prm["tu"]
+    a = perturbing_acceleration(r * prm["du"], t, model)
     a = a * prm["tu"] ** 2 / prm["du"]
     return jnp.stack([a @ e_t, a @ e_r, a @ e_n])
 

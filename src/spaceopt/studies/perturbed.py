@@ -163,9 +163,9 @@ def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False, path: str = 
 def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None) -> Solution:
     """From a converged OT solution to the problem of ``tr_to`` (new date, model or n_rev).
 
-    Perturbed → perturbed: thrust, L₀, L_f, c move linearly in τ; everything else (the epoch,
-    the force model) is the new problem's from τ = 0 on, and the Newton homotopy
-    f(z, τ) = (1 − τ) b absorbs the initial residual b; followed in τ, and in arclength where
+    Perturbed → perturbed: thrust, L₀, L_f, c and a new departure epoch move linearly in τ;
+    everything else (the force model) is the new problem's from τ = 0 on, and the Newton
+    homotopy f(z, τ) = (1 − τ) b absorbs the initial residual b; followed in τ, and in arclength where
     the τ-path stalls (a turning point). Unperturbed → perturbed: :func:`perturb_from_unperturbed`.
     The path used is in ``stats['warm_path']``.
     """
@@ -174,6 +174,13 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None) -> Solu
     if not sol.transfer.perturbed and tr_to.perturbed:
         return perturb_from_unperturbed(sol, tr_to, label)
     prm_to = tr_to.params(thrust=sol.thrust_N)
+    if sol.transfer.epoch_utc != tr_to.epoch_utc:
+        # new departure date (E6): the epoch moves continuously from the old date to the new one
+        # (prm['epoch_offset_s'] from t0_old − t0_new to 0), a natural homotopy in the date
+        import jax.numpy as jnp
+        shift = float(sol.prm["pert"].epoch) - float(prm_to["pert"].epoch)
+        sol = dataclasses.replace(sol, prm={**sol.prm, "epoch_offset_s": jnp.asarray(shift)})
+        prm_to = {**prm_to, "epoch_offset_s": jnp.asarray(0.0)}
     try:
         out = chain.continue_in_params(sol, prm_to, options, label=label)
         out.stats["warm_path"] = "tau"
