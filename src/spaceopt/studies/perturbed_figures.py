@@ -34,7 +34,8 @@ def projections(runs: dict, title: str, path, unit_km=1e3, dpi=150):
             _burn_segments(ax, r[:, i], r[:, j], burn, COLORS.get(label, "k"), dashed=label != "unperturbed",
                            label=label if ax is axes[0] else None)
     for ax, (a, b) in zip(axes, (("x", "y"), ("x", "z"), ("y", "z"))):
-        ax.set_xlabel(f"{a}, 10³ km"); ax.set_ylabel(f"{b}, 10³ km"); ax.set_aspect("equal", "datalim")
+        unit = "km" if unit_km == 1.0 else ("10³ km" if unit_km == 1e3 else f"{unit_km:g} km")
+        ax.set_xlabel(f"{a}, {unit}"); ax.set_ylabel(f"{b}, {unit}"); ax.set_aspect("equal", "datalim")
         ax.plot(0, 0, "o", color="k", ms=3)
     axes[0].legend(fontsize=8)
     fig.suptitle(title)
