@@ -29,6 +29,30 @@ COLUMNS = {
     "e8": ["n_rev", "model", "propellant_kg", "tof_days"],
     "e9": ["model", "n_rev", "tof_days", "m_p_kg", "dv_m_s", "burn_h"],
 }
+# LaTeX column headers (name, unit) of the CSV columns
+HEADERS = {"model": ("model", ""), "date": ("departure", ""), "n_rev": ("revolutions", ""),
+           "m_f_kg": ("$m_f$", "kg"), "tof_days": (r"$\Delta t$", "d"), "K_f_deg": ("$K_f$", "deg"),
+           "propellant_kg": ("$m_p$", "kg"), "m_p_kg": ("$m_p$", "kg"), "dv_m_s": (r"$\Delta V$", "m/s"),
+           "burn_h": ("burn time", "h")}
+TABLE_CAPTIONS = {"e5": "E5, 5-revolution HEO to HEO (Table 4.2.1.2 scalars)",
+                  "e6_date_scan": "E6, departure-date scan over May 2021",
+                  "e7": "E7, 100-revolution GTO to Molniya, 1 N",
+                  "e8": "E8, GTO to GEO case B against the number of revolutions",
+                  "e9": "E9, 63.007-revolution LEO to LEO, 1 N (Table 4.2.3.2)"}
+# What each reproduced figure shows (the dissertation's figure number is the file name)
+FIGURE_CAPTIONS = {
+    "fig_4_2_1_1": "E5: projections of the unperturbed and perturbed trajectories (thick: burns)",
+    "fig_4_2_1_2": "E5: osculating elements against time, unperturbed and perturbed",
+    "fig_4_2_1_3": "E5: switching function, pitch and yaw against time",
+    "fig_4_2_1_4": "E6: final mass and transfer time against the departure date",
+    "fig_4_2_1_5": "E6: initial costates against the departure date",
+    "fig_4_2_1_6": "E7: GTO to Molniya trajectory projections",
+    "fig_4_2_2_1": "E8: GTO to GEO case B trajectory projections",
+    "fig_4_2_2_3": "E8: pitch, yaw and switching function against time",
+    "fig_4_2_2_5": "E8: propellant against the number of revolutions and the transfer time",
+    "fig_4_2_3_1": "E9: controls and elements of the first force model",
+    "fig_4_2_3_2": "E9: controls and elements of the second force model",
+}
 
 
 def initial_burn(npz: dict) -> bool:
@@ -190,6 +214,14 @@ def _fmt(v, digits=6):
     return str(v)
 
 
+def _cell(column: str, value) -> str:
+    """A LaTeX table cell: revolutions as given, other numbers in math mode (a true minus sign)."""
+    if column == "n_rev" and isinstance(value, float):
+        return f"{value:g}"
+    text = _fmt(value)
+    return f"${text}$" if isinstance(value, float) and text != "--" else latex_escape(text)
+
+
 def markdown(tabs: dict, e6sum: dict | None = None, budget: dict | None = None) -> str:
     out = ["# Perturbed studies (dissertation §4.2), reproduced\n"]
     if budget:
@@ -215,13 +247,13 @@ def latex(tabs: dict) -> str:
         if not tabs[name]:
             continue
         out.append(r"\begin{table}[htbp]\centering\small")
-        out.append(r"\caption{Perturbed study " + latex_escape(name) + r" (reproduced).}")
-        out.append(r"\begin{tabular}{" + "l" * len(cols) + "}")
+        out.append(r"\caption{" + TABLE_CAPTIONS[name] + ", ours.}")
+        out.append(r"\begin{tabular}{l" + "r" * (len(cols) - 1) + "}")
         out.append(r"\toprule")
-        out.append(" & ".join(latex_escape(c) for c in cols) + r" \\")
+        out.append(" & ".join(HEADERS[c][0] + (f", {HEADERS[c][1]}" if HEADERS[c][1] else "") for c in cols) + r" \\")
         out.append(r"\midrule")
         for r in tabs[name]:
-            out.append(" & ".join(latex_escape(_fmt(r.get(c, ""))) for c in cols) + r" \\")
+            out.append(" & ".join(_cell(c, r.get(c, "")) for c in cols) + r" \\")
         out.append(r"\bottomrule")
         out.append(r"\end{tabular}")
         out.append(r"\end{table}")
@@ -234,23 +266,26 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
     n_fail = sum(r["status"] == "fail" for r in rows)
     n_miss = sum(r["status"] == "missing" for r in rows)
     lines = [r"\section{Perturbed multi-revolution transfers (dissertation \S4.2)}\label{sec:perturbed}",
-             "Each transfer is solved from the zero guess: minimum-power (LP) solve, then the LP "
-             r"$\to$ minimum-fuel homotopy (3.3.1) that also switches the perturbations on, then a "
-             r"log-uniform smoothing stage to $\varepsilon_f=10^{-5}$. The departure scan warm-starts "
-             "each date from its solved neighbour, and the 4$\\times$4 LEO runs from the $J_2$ solution "
+             "Each chain starts from the zero guess with the minimum-power (LP) solve. The minimum-fuel "
+             r"solution is reached either by the LP $\to$ minimum-fuel homotopy (3.3.1), which also switches "
+             r"the perturbations on, or (E5) through the minimum-thrust solution and a $T_{min}\to$ "
+             r"minimum-fuel homotopy, then a log-uniform smoothing stage to $\varepsilon_f=10^{-5}$. "
+             "Where the zero-guess chain of a perturbed case does not converge, the run warm-starts from "
+             "our unperturbed extremal by a homotopy in the perturbation strength and says so in its "
+             "artifact and its reproduction notes; the 4$\\times$4 LEO runs start from the $J_2$ solution "
              f"(Newton homotopy at the new data). Of the reproduction rows, {n_pass} pass, {n_fail} fail "
              f"and {n_miss} were not produced in this run (Table~\\ref{{tab:scoreboard}}).", ""]
     if budget:
         g = budget["egm96_gm"]
         lines += [r"\subsection{LEO $\Delta\Omega$ budget}",
                   f"With EGM96 $J_2$, the natural nodal drift of the initial LEO is "
-                  f"{g['raan_deg_per_day']:.4f}$^\\circ$/d, i.e. {g['draan_deg']:.3f}$^\\circ$ in "
-                  f"{budget['days']:g}~d against the required {budget['required_draan_deg']:.2f}$^\\circ$; "
-                  f"the apsidal drift {g['dargp_deg']:.3f}$^\\circ$ matches the target "
+                  f"${g['raan_deg_per_day']:.4f}^\\circ$/d, i.e. ${g['draan_deg']:.3f}^\\circ$ in "
+                  f"{budget['days']:g}~d against the required ${budget['required_draan_deg']:.2f}^\\circ$; "
+                  f"the apsidal drift ${g['dargp_deg']:.3f}^\\circ$ matches the target "
                   f"$\\omega_f={budget['required_dargp_deg']:.3f}^\\circ$. The control must slow the "
-                  f"regression by {budget['control_must_change_draan_by_deg']:.3f}$^\\circ$."
+                  f"regression by ${budget['control_must_change_draan_by_deg']:.3f}^\\circ$."
                   + (f" A free Cartesian coast with the $J_2$ model (frozen pole of the epoch) gives an "
-                     f"osculating $\\Delta\\Omega$ of {budget['numeric_coast']['draan_deg']:.3f}$^\\circ$ "
+                     f"osculating $\\Delta\\Omega$ of ${budget['numeric_coast']['draan_deg']:.3f}^\\circ$ "
                      f"(the osculating $\\omega$ of this near-circular orbit is not meaningful)."
                      if "numeric_coast" in budget else ""), ""]
     if e6sum:
@@ -264,7 +299,9 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
     for f in figures:
         stem = Path(f).stem
         lines += [r"\begin{figure}[htbp]\centering",
-                  r"\includegraphics[width=\linewidth]{" + resultsdir_macro + "/perturbed/figures/" + stem + ".pdf}",
-                  r"\caption{" + latex_escape(stem.replace("fig_", "Fig. ").replace("_", ".")) + r" (reproduced).}",
+                  r"\includegraphics[width=\linewidth,height=0.75\textheight,keepaspectratio]{"
+                  + resultsdir_macro + "/perturbed/figures/" + stem + ".pdf}",
+                  r"\caption{" + latex_escape(FIGURE_CAPTIONS.get(stem, stem)) + " (dissertation "
+                  + latex_escape(stem.replace("fig_", "Fig. ").replace("_", ".")) + ").}",
                   r"\end{figure}"]
     return "\n".join(lines) + "\n"
