@@ -23,31 +23,16 @@ import os
 import re
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
+from workflow_skeleton import planned_rules, repo_snakemake as smk
 
 from spaceopt import artifacts
 
 ROOT = Path(__file__).resolve().parents[1]
-SNAKEMAKE = str(Path(sys.executable).with_name("snakemake"))
-
-def smk(*args, timeout=1800):
-    res = subprocess.run([SNAKEMAKE, *args], cwd=ROOT, capture_output=True, text=True, timeout=timeout)
-    return res.returncode, res.stdout + res.stderr
-
-
-def planned_rules(output: str) -> dict:
-    """{rule: count} from the 'Job stats' table of a dry run ({} when nothing is to be done)."""
-    if "Job stats:" not in output:
-        assert "Nothing to be done" in output, output[-2000:]
-        return {}
-    stats = output.split("Job stats:")[-1]
-    return {m.group(1): int(m.group(2)) for m in re.finditer(r"^(\w+)\s+(\d+)$", stats, re.M)
-            if m.group(1) != "total"}
 
 
 def quick_args(results: Path) -> list[str]:

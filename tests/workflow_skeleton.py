@@ -44,11 +44,21 @@ def run_snakemake(root: Path, *args, timeout=120) -> subprocess.CompletedProcess
                           capture_output=True, text=True, timeout=timeout)
 
 
-def planned_jobs(proc) -> dict:
-    """{rule: count} from the 'Job stats' table of a (dry) run; {} when nothing is to be done."""
-    text = proc.stdout + proc.stderr
+def repo_snakemake(*args, timeout=1800) -> tuple[int, str]:
+    """Snakemake in the repository itself: (return code, stdout + stderr)."""
+    proc = run_snakemake(ROOT, *args, timeout=timeout)
+    return proc.returncode, proc.stdout + proc.stderr
+
+
+def planned_rules(text: str) -> dict:
+    """{rule: count} from the 'Job stats' table of a (dry) run's output; {} when nothing is to be done."""
     m = re.search(r"Job stats:\s*\n\s*job\s+count\s*\n[-\s]+\n(.*?)\n\s*total\s+\d+", text, re.S)
     if not m:
-        assert "Nothing to be done" in text, text
+        assert "Nothing to be done" in text, text[-3000:]
         return {}
     return {name: int(n) for name, n in re.findall(r"^\s*(\S+)\s+(\d+)\s*$", m.group(1), re.M)}
+
+
+def planned_jobs(proc) -> dict:
+    """planned_rules of a completed process."""
+    return planned_rules(proc.stdout + proc.stderr)
