@@ -44,42 +44,36 @@ def projections(runs: dict, title: str, path, unit_km=1e3, dpi=150):
     plt.close(fig)
 
 
-def elements(runs: dict, title: str, path, keys=("a_m", "e", "i_deg", "raan_deg", "argp_deg")):
-    labels = {"a_m": "a, km", "e": "e", "i_deg": "i, deg", "raan_deg": "Ω, deg", "argp_deg": "ω, deg"}
-    fig, axes = plt.subplots(len(keys), 1, figsize=(8, 1.9 * len(keys)), sharex=True)
+LABELS = {"a_m": "a, km", "e": "e", "i_deg": "i, deg", "raan_deg": "Ω, deg", "argp_deg": "ω, deg",
+          "S": "S", "pitch_deg": "pitch, deg", "yaw_deg": "yaw, deg", "delta": "δ"}
+
+
+def _time_series(runs: dict, keys, title: str, path, row_height: float, lw: float, unwrap=()):
+    """One panel per key against time in days, one line per run; a in km, ``unwrap`` angles unwrapped."""
+    fig, axes = plt.subplots(len(keys), 1, figsize=(8, row_height * len(keys)), sharex=True)
     for label, s in runs.items():
         t = np.asarray(s["t_s"]) / DAY
         for ax, k in zip(axes, keys):
             v = np.asarray(s[k]) / (1e3 if k == "a_m" else 1.0)
-            if k in ("raan_deg", "argp_deg"):
+            if k in unwrap:
                 v = np.degrees(np.unwrap(np.radians(v)))
-            ax.plot(t, v, color=COLORS.get(label, "k"), lw=0.8, label=label)
-            ax.set_ylabel(labels[k])
+            ax.plot(t, v, color=COLORS.get(label, "k"), lw=lw, label=label)
+            ax.set_ylabel(LABELS[k])
     axes[0].legend(fontsize=8)
     axes[-1].set_xlabel("t, days")
     fig.suptitle(title)
     fig.tight_layout()
     save_figure(fig, path)
     plt.close(fig)
+
+
+def elements(runs: dict, title: str, path, keys=("a_m", "e", "i_deg", "raan_deg", "argp_deg")):
+    _time_series(runs, keys, title, path, row_height=1.9, lw=0.8, unwrap=("raan_deg", "argp_deg"))
 
 
 def controls(runs: dict, title: str, path, with_delta=False, with_elements=()):
-    rows = list(with_elements) + ["S", "pitch_deg", "yaw_deg"] + (["delta"] if with_delta else [])
-    names = {"S": "S", "pitch_deg": "pitch, deg", "yaw_deg": "yaw, deg", "delta": "δ",
-             "a_m": "a, km", "e": "e", "raan_deg": "Ω, deg"}
-    fig, axes = plt.subplots(len(rows), 1, figsize=(8, 1.7 * len(rows)), sharex=True)
-    for label, s in runs.items():
-        t = np.asarray(s["t_s"]) / DAY
-        for ax, k in zip(axes, rows):
-            v = np.asarray(s[k]) / (1e3 if k == "a_m" else 1.0)
-            ax.plot(t, v, color=COLORS.get(label, "k"), lw=0.6, label=label)
-            ax.set_ylabel(names[k])
-    axes[0].legend(fontsize=8)
-    axes[-1].set_xlabel("t, days")
-    fig.suptitle(title)
-    fig.tight_layout()
-    save_figure(fig, path)
-    plt.close(fig)
+    keys = list(with_elements) + ["S", "pitch_deg", "yaw_deg"] + (["delta"] if with_delta else [])
+    _time_series(runs, keys, title, path, row_height=1.7, lw=0.6)
 
 
 def date_scan(rows: list, path, title="E6: departure date scan, May 2021"):
