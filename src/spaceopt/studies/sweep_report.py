@@ -230,48 +230,46 @@ TITLES = {"T_min_N": ("Table 4.1.1", "Minimum thrust [N] against the number of r
           "tof_days": ("Table 4.1.2", "Transfer time [days] of the optimal T_min trajectory against the number of revolutions and the initial true longitude", 5)}
 
 
-def table_markdown(cells, pub: dict, repro, quantity, table_L0, n_revs) -> str:
-    name, title, d = TITLES[quantity]
+def _grid_rows(cells, pub: dict, repro, quantity, table_L0, n_revs):
+    """The revolution counts (ascending) and, per L0, the cells (ours, published or None, failing)."""
     g = grid(cells)
     ns = sorted(float(x) for x in n_revs)
+    rows = [(L0, [(g[n][L0][quantity], _published(pub, L0, n, quantity),
+                   _status(repro, L0, n, quantity) == "fail") for n in ns])
+            for L0 in sorted(float(x) for x in table_L0)]
+    return ns, rows
+
+
+def table_markdown(cells, pub: dict, repro, quantity, table_L0, n_revs) -> str:
+    name, title, d = TITLES[quantity]
+    ns, rows = _grid_rows(cells, pub, repro, quantity, table_L0, n_revs)
     lines = [f"**{name}** (reproduced). {title}. Each cell: ours, then the published value in "
              "brackets where the specification gives it (`!` marks a cell outside the tolerance: "
              f"{'1e-5 abs' if quantity == 'T_min_N' else '1e-4 rel'}); rows without brackets were held back.", "",
              "| L0, deg | " + " | ".join(f"{n:g} rev" for n in ns) + " |",
              "|---|" + "---|" * len(ns)]
-    for L0 in sorted(float(x) for x in table_L0):
-        row = []
-        for n in ns:
-            v = g[n][L0][quantity]
-            p = _published(pub, L0, n, quantity)
-            s = f"{v:.{d}f}"
-            if p is not None:
-                mark = "!" if _status(repro, L0, n, quantity) == "fail" else ""
-                s += f" [{p:.{d}f}]{mark}"
-            row.append(s)
-        lines.append(f"| {L0:g} | " + " | ".join(row) + " |")
+    for L0, row in rows:
+        text = [f"{v:.{d}f}" + ("" if p is None else f" [{p:.{d}f}]" + ("!" if bad else "")) for v, p, bad in row]
+        lines.append(f"| {L0:g} | " + " | ".join(text) + " |")
     return "\n".join(lines) + "\n"
 
 
 def table_latex(cells, pub: dict, repro, quantity, table_L0, n_revs) -> str:
     name, title, d = TITLES[quantity]
-    g = grid(cells)
-    ns = sorted(float(x) for x in n_revs)
+    ns, rows = _grid_rows(cells, pub, repro, quantity, table_L0, n_revs)
     out = [r"\begin{tabular}{r" + "r" * len(ns) + "}", r"\hline",
            r"$L_0$, deg & " + " & ".join(f"{n:g} rev" for n in ns) + r" \\", r"\hline"]
-    for L0 in sorted(float(x) for x in table_L0):
-        row = []
-        for n in ns:
-            v = g[n][L0][quantity]
-            p = _published(pub, L0, n, quantity)
+    for L0, row in rows:
+        text = []
+        for v, p, bad in row:
             s = f"{v:.{d}f}"
             if p is not None:
-                mark = r"$^\dagger$" if _status(repro, L0, n, quantity) == "fail" else ""
                 # top-aligned stack: the first line sits on the row's baseline (a \shortstack
                 # would rise into the rule above the first row)
-                s = r"\begin{tabular}[t]{@{}r@{}}" + s + mark + r"\\{\scriptsize(" + f"{p:.{d}f}" + r")}\end{tabular}"
-            row.append(s)
-        out.append(f"{L0:g} & " + " & ".join(row) + r" \\")
+                s = (r"\begin{tabular}[t]{@{}r@{}}" + s + (r"$^\dagger$" if bad else "")
+                     + r"\\{\scriptsize(" + f"{p:.{d}f}" + r")}\end{tabular}")
+            text.append(s)
+        out.append(f"{L0:g} & " + " & ".join(text) + r" \\")
     out += [r"\hline", r"\end{tabular}", ""]
     return "\n".join(out)
 
