@@ -123,21 +123,13 @@ class Continuation:
             zt, tt = z + h * dz, tau + h
             if prev_tangent is not None:                 # second-order term from the last two tangents
                 zt = zt + 0.5 * h * h * (dz - prev_tangent[0]) / prev_tangent[1]
-            accepted, iters, prev = False, 0, None
-            for iters in range(1, opt.max_corrector + 1):
-                ft, Jt, fttau, okt = self._eval(zt, tt)
-                if not okt or not np.all(np.isfinite(ft)):
-                    break
-                Ft = ft - w(tt) * b
-                nF = _norm(Ft)
-                if nF <= opt.tol_step:
-                    accepted = True
-                    break
-                if prev is not None and nF > 0.5 * prev:
-                    break
-                prev = nF
-                zt = zt + _solve(Jt, -Ft)
+            def residual(zz):
+                ft, Jt, fttau, okt = self._eval(zz, tt)
+                return None if not okt or not np.all(np.isfinite(ft)) else (ft - w(tt) * b, (ft, Jt, fttau))
+
+            accepted, zt, Ft, ev, nF, iters = self._correct(zt, residual, lambda zz, Fz, e: zz + _solve(e[1], -Fz))
             if accepted:
+                ft, Jt, fttau = ev
                 prev_tangent = (dz, h)
                 # one more Newton update with the last Jacobian, without re-evaluating: the
                 # residual drops quadratically and the next corrector re-checks it anyway
@@ -156,20 +148,49 @@ class Continuation:
         if self.polish is not self.evaluate:
             f, J, ftau, ok = self._eval(z, tau1, final=True)
             F = f
+        return self._polish(z, J, F, tau1, h, t_start, _solve, "done")
+
+    def _correct(self, x, residual, newton_step):
+        """The Newton corrector of both followers: x <- newton_step(x, F, ev) until |F| <= tol_step.
+
+        ``residual(x)`` gives (F, ev), or None when the propagation failed; ``ev`` is the evaluation
+        at x that ``newton_step`` and the caller use. Gives up when an evaluation fails or |F| does
+        not at least halve. Returns (accepted, x, F, ev, |F|, iterations).
+        """
+        prev = F = ev = nF = None
+        iters = 0
+        for iters in range(1, self.opt.max_corrector + 1):
+            out = residual(x)
+            if out is None:
+                break
+            F, ev = out
+            nF = _norm(F)
+            if nF <= self.opt.tol_step:
+                return True, x, F, ev, nF, iters
+            if prev is not None and nF > 0.5 * prev:
+                break
+            prev = nF
+            x = newton_step(x, F, ev)
+        return False, x, F, ev, nF, iters
+
+    def _polish(self, z, J, F, tau, h, t_start, solve, tag):
+        """Final Newton iterations at τ (polishing tolerances) while |F| > tol_final and it does not
+        double; records the statistics, raises the diagnosis when |F| stays above 1e3 tol_final."""
+        opt = self.opt
         nF = _norm(F)
         for _ in range(opt.max_final):
             if nF <= opt.tol_final:
                 break
-            z_new = z + _solve(J, -F)
-            f_new, J_new, ftau_new, ok = self._eval(z_new, tau1, final=True)
+            z_new = z + solve(J, -F)
+            f_new, J_new, _, ok = self._eval(z_new, tau, final=True)
             if not ok or not np.all(np.isfinite(f_new)) or _norm(f_new) > 2.0 * nF:
                 break
-            z, F, J, ftau, nF = z_new, f_new, J_new, ftau_new, _norm(f_new)
+            z, F, J, nF = z_new, f_new, J_new, _norm(f_new)
         self.stats.residual = nF
         self.stats.wall_time_s = time.perf_counter() - t_start
         if nF > opt.tol_final * 1e3:
-            raise self._diagnose("final Newton polish did not converge", z, tau1, h, F)
-        self._log(f"done: |F|={nF:.2e} steps={self.stats.steps} rejected={self.stats.rejected} "
+            raise self._diagnose("final Newton polish did not converge", z, tau, h, F)
+        self._log(f"{tag}: |F|={nF:.2e} steps={self.stats.steps} rejected={self.stats.rejected} "
                   f"jacobians={self.stats.jacobians} ({self.stats.wall_time_s:.1f} s)")
         return z, J
 
@@ -226,21 +247,15 @@ class ArclengthContinuation(Continuation):
                 raise self._diagnose("too many continuation steps", z, tau, h, F)
             u = np.concatenate([z, [tau]])
             up = u + h * t
-            uc, accepted, prev, iters = up.copy(), False, None, 0
-            for iters in range(1, opt.max_corrector + 1):
-                fc, Jc, ftc, okc = self._eval(uc[:n], uc[n])
-                if not okc or not np.all(np.isfinite(fc)):
-                    break
-                Fc = fc - (1.0 - uc[n]) * b
-                nF = _norm(Fc)
-                if nF <= opt.tol_step:
-                    accepted = True
-                    break
-                if prev is not None and nF > 0.5 * prev:
-                    break
-                prev = nF
-                M = np.vstack([np.hstack([Jc, (ftc + b)[:, None]]), t[None, :]])
-                uc = uc + np.linalg.lstsq(M, -np.concatenate([Fc, [np.dot(t, uc - up)]]), rcond=None)[0]
+            def residual(u):
+                fc, Jc, ftc, okc = self._eval(u[:n], u[n])
+                return None if not okc or not np.all(np.isfinite(fc)) else (fc - (1.0 - u[n]) * b, (Jc, ftc))
+
+            def newton_step(u, Fc, ev):
+                M = np.vstack([np.hstack([ev[0], (ev[1] + b)[:, None]]), t[None, :]])
+                return u + np.linalg.lstsq(M, -np.concatenate([Fc, [np.dot(t, u - up)]]), rcond=None)[0]
+
+            accepted, uc, Fc, ev, nF, iters = self._correct(up.copy(), residual, newton_step)
             if not accepted:
                 self.stats.rejected += 1
                 h *= 0.3
@@ -254,7 +269,7 @@ class ArclengthContinuation(Continuation):
                 z, tau = z + lam * (uc[:n] - z), 1.0
                 self.stats.history.append({"tau": 1.0, "h": h, "iters": iters, "residual": nF})
                 break
-            t = tangent(Jc, ftc, t)
+            t = tangent(*ev, t)
             z, tau, F = uc[:n], uc[n], Fc
             self.stats.history.append({"tau": tau, "h": h, "iters": iters, "residual": nF})
             self._log(f"s-step {self.stats.steps}: tau={tau:.6f} h={h:.3g} corr={iters} |F|={nF:.2e} "
@@ -262,19 +277,5 @@ class ArclengthContinuation(Continuation):
             h = min(opt.h_max, h * {1: 2.0, 2: 1.5, 3: 1.2}.get(iters, 0.8))
         # polish at τ = 1
         f, J, ftau, ok = self._eval(z, 1.0, final=True)
-        F, nF = f, _norm(f)
-        for _ in range(opt.max_final):
-            if nF <= opt.tol_final:
-                break
-            z_new = z + np.linalg.lstsq(J, -F, rcond=None)[0]
-            f_new, J_new, _, ok = self._eval(z_new, 1.0, final=True)
-            if not ok or not np.all(np.isfinite(f_new)) or _norm(f_new) > 2.0 * nF:
-                break
-            z, F, J, nF = z_new, f_new, J_new, _norm(f_new)
-        self.stats.residual = nF
-        self.stats.wall_time_s = time.perf_counter() - t_start
-        if nF > opt.tol_final * 1e3:
-            raise self._diagnose("final Newton polish did not converge", z, 1.0, h, F)
-        self._log(f"done (arclength): |F|={nF:.2e} steps={self.stats.steps} rejected={self.stats.rejected} "
-                  f"jacobians={self.stats.jacobians} ({self.stats.wall_time_s:.1f} s)")
-        return z, J
+        return self._polish(z, J, f, 1.0, h, t_start, lambda J, r: np.linalg.lstsq(J, r, rcond=None)[0],
+                            "done (arclength)")
