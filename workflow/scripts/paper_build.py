@@ -62,6 +62,11 @@ def main(argv=None):
     cmd = [latexmk, "-pdf", "-interaction=nonstopmode", "-halt-on-error", "-file-line-error",
            f"-outdir={build}", f"-usepretex=\\def\\resultsdir{{{results}}}{profile_note(a.note)}", str(tex)]
     proc = subprocess.run(cmd, env=env, capture_output=True, text=True, errors="replace")
+    if proc.returncode == 0:
+        # A second latexmk call compares the auxiliary files (.aux, .toc) by content with what the
+        # last pass read and reruns pdflatex if they changed; under heavy load the first call once
+        # stopped one pass early (stale table of contents, a different PDF). Up to date: no pass.
+        proc = subprocess.run(cmd, env=env, capture_output=True, text=True, errors="replace")
     sys.stderr.write(proc.stdout[-20000:])
     sys.stderr.write(proc.stderr[-20000:])
     pdf = build / (tex.stem + ".pdf")
