@@ -1,0 +1,104 @@
+"""Search for other E5 unperturbed OT extremals (docs/e5-extremals.md).
+
+The published unperturbed E5 (Table 4.2.1.2: m_f 955.257738 kg, Δt 60.669362 d, a burn at the
+start) is not the extremal our chain reaches (956.128311 kg, 60.472112 d, a coast at the start).
+Each experiment here tries to reach another extremal of the same problem and prints m_f, Δt,
+K_f, whether the engine is on at K = 0 and the number of burn arcs:
+
+  multistart SEED SIGMA N   Newton homotopy (ε₁ → ε_f) from our costates × (1 + SIGMA·N(0, 1)),
+                            p_LK (≈ 0 in ours) + 10⁻⁵·N(0, 1)
+  foldjump W_REF            LP → OT blend (3.3.1) in τ up to its fold, then the Newton homotopy
+                            at the OT problem from the last point of the path (a jump over the fold)
+  l0 L0_DEG …               chain at another L₀ (L_f = L₀ + 1800°), then continued in L₀ to 160°
+  variant NAME …            other readings of Table 4.2.1.1 (final_lonperi: ω_f = 90° − Ω_f)
+
+Run from the repository root after ``./dev reproduce`` has written results/perturbed/e5/:
+``.venv/bin/python docs/experiments/e5_extremal_search.py multistart 0 0.3 8``.
+"""
+import dataclasses
+import json
+import math
+import sys
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import yaml
+
+jax.config.update("jax_enable_x64", True)
+from spaceopt.errors import ConvergenceError  # noqa: E402
+from spaceopt.indirect import chain, hamiltonians as hm  # noqa: E402
+from spaceopt.indirect.continuation import ContinuationOptions  # noqa: E402
+from spaceopt.studies import perturbed as P  # noqa: E402
+
+QUIET = ContinuationOptions(verbose=False)
+PC = yaml.safe_load(open("config/studies/perturbed.yaml"))["perturbed"]
+TR = P.transfer_from_config(PC, "e5", "unperturbed")
+SH = chain.shooting_for("ot", "eps", TR)
+PRM = TR.params(thrust=TR.thrust)
+
+
+def report(sol, tag):
+    _, y = chain.dense(sol, 100)
+    burning = np.diff(y[:, hm.MASS]) < -1e-9
+    arcs = int(np.sum(np.diff(burning.astype(int)) == 1) + burning[0])
+    print(f"{tag}: m_f={y[-1, hm.MASS] * sol.transfer.m0:.6f} kg  dt={y[-1, hm.TIME] * sol.transfer.tu / 86400:.6f} d  "
+          f"K_f={math.degrees(sol.K_f):.4f} deg  burn_at_start={bool(burning[0])}  arcs={arcs}  "
+          f"z={np.round(sol.z, 6).tolist()}", flush=True)
+
+
+def solve_from(z0, tag):
+    try:
+        z, _ = chain._run(SH, np.asarray(z0, float), PRM, tag, QUIET, "tau")
+        report(chain.Solution("ot", SH, z, PRM, TR, {}, thrust_N=TR.thrust), tag)
+    except ConvergenceError as exc:
+        print(f"{tag}: no convergence ({exc})", flush=True)
+
+
+def multistart(seed, sigma, n):
+    z_ours = np.asarray(json.load(open("results/perturbed/e5/unperturbed.json"))["z"])
+    rng = np.random.default_rng(int(seed))
+    for k in range(int(n)):
+        z0 = z_ours.copy()
+        z0[:-1] *= 1.0 + float(sigma) * rng.standard_normal(z0.size - 1)
+        z0[SH.unknown_names().index("p_LK")] += 1e-5 * rng.standard_normal()
+        solve_from(z0, f"start {k}")
+
+
+def foldjump(w_ref):
+    lp = chain.solve_lp(TR, QUIET, label="lp")
+    sh = chain.shooting_for("ot", "lp", TR)
+    try:
+        z, _ = chain._run(sh, chain.start_vector(sh, lp.doubled_costates(), lp.K_f),
+                          {**PRM, "blend_ref": jnp.asarray(float(w_ref))}, "blend", QUIET, "tau")
+        print("the blend reached tau = 1 (no fold)")
+    except ConvergenceError as exc:
+        print(f"the blend stops at tau = {exc.diagnosis['tau']:.6f}")
+        z = np.asarray(exc.diagnosis["z"])
+    solve_from(z, "after the fold")
+
+
+def l0(*l0_deg):
+    for deg in map(float, l0_deg):
+        tr = dataclasses.replace(TR, L0_deg=deg)
+        try:
+            _, ot = P.solve_for(tr, f"L0={deg:g}", path="tau", options=QUIET, route="lp-tmin-ot")
+            report(ot, f"L0={deg:g}")
+            sol = chain.continue_in_params(ot, PRM, None, label=f"L0 {deg:g} -> {TR.L0_deg:g}", path="arclength")
+            report(dataclasses.replace(sol, transfer=TR, thrust_N=TR.thrust), f"L0={deg:g} -> {TR.L0_deg:g}")
+        except ConvergenceError as exc:
+            print(f"L0={deg:g}: no convergence ({exc})", flush=True)
+
+
+def variant(*names):
+    readings = {"final_lonperi": {"final": dataclasses.replace(TR.final, argp=(90.0 - TR.final.raan) % 360.0)}}
+    for name in names:
+        tr = dataclasses.replace(TR, **readings[name])
+        try:
+            report(P.solve_for(tr, name, path="tau", options=QUIET, route="lp-tmin-ot")[1], name)
+        except ConvergenceError as exc:
+            print(f"{name}: no convergence ({exc})", flush=True)
+
+
+if __name__ == "__main__":
+    {"multistart": multistart, "foldjump": foldjump, "l0": l0, "variant": variant}[sys.argv[1]](*sys.argv[2:])
