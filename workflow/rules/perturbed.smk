@@ -1,6 +1,6 @@
 # Dissertation §4.2: perturbed multi-revolution transfers E5-E9 (spec 02-multirev §4-§6).
 #   results/perturbed/<case>/<model>.{json,npz,rrd}     E5, E7, E9 chain solves
-#   results/perturbed/e6/<date>.{json,npz,rrd}          E6 departure scan (warm start date to date)
+#   results/perturbed/e6/<date>.{json,npz,rrd}          E6 departure scan (each date from the unperturbed OT)
 #   results/perturbed/e8/<model>_n<n>.{json,npz,rrd}    E8 (warm start n to n)
 #   results/perturbed/e9_budget.json                    ΔΩ budget check (spec §6)
 #   results/perturbed/{e5,e6_date_scan,e7,e8,e9}.csv, reproduction.csv, paper_section.tex, figures/
@@ -94,8 +94,13 @@ def pt_e6_dates():
 
 
 def pt_e6_source(date):
-    """The neighbouring date (towards the E5 anchor) this date warm-starts from."""
+    """What a date warm-starts from. warm_start: unperturbed (default) — the unperturbed OT of
+    the E6 case (date independent), the perturbations then switched on by τ, so every date is
+    an independent job; neighbour — the neighbouring date towards the E5 anchor (None: the E5
+    solve itself)."""
     from spaceopt.studies.perturbed import scan_dates, scan_order
+    if E6.get("warm_start", "unperturbed") == "unperturbed":
+        return "unperturbed"
     anchor = PT["cases"][E6["case"]]["epoch_utc"]
     pairs = dict((d[:10], s[:10]) for d, s in scan_order(scan_dates(E6), anchor))
     return pairs.get(date)
@@ -103,7 +108,8 @@ def pt_e6_source(date):
 
 def pt_e6_inputs(w):
     src = pt_e6_source(w.date)
-    start = (f"{PTDIR}/{E6['case']}/{E6['model']}.json" if src is None else f"{PTDIR}/e6/{src}.json")
+    start = {None: f"{PTDIR}/{E6['case']}/{E6['model']}.json",
+             "unperturbed": f"{PTDIR}/{E6['case']}/unperturbed.json"}.get(src, f"{PTDIR}/e6/{src}.json")
     return {"start": start, "src": PT_SRC, "eph": pt_ephemeris(E6["case"], E6["model"])}
 
 
