@@ -72,14 +72,21 @@ def summarize(rows: list[dict]) -> list[dict]:
 
 # ----------------------------------------------------------------------------- formatting
 
-def fmt_number(text: str, digits: int = 10) -> str:
-    """A CSV number as a short human string (``repr`` floats are long); text passes through."""
+def _number_or_text(text):
+    """float(text), or the text itself ('' for an empty cell) when it is not a number."""
     if text in ("", None):
         return ""
     try:
-        x = float(text)
+        return float(text)
     except ValueError:
         return str(text)
+
+
+def fmt_number(text: str, digits: int = 10) -> str:
+    """A CSV number as a short human string (``repr`` floats are long); text passes through."""
+    x = _number_or_text(text)
+    if isinstance(x, str):
+        return x
     if math.isnan(x) or math.isinf(x):
         return str(x)
     if float(x).is_integer() and abs(x) < 1e15 and "e" not in str(text).lower() and "." not in str(text):
@@ -111,12 +118,9 @@ def fmt_ours(text: str, published: str = "") -> str:
 
 
 def fmt_rel(text: str) -> str:
-    if text in ("", None):
-        return ""
-    try:
-        x = float(text)
-    except ValueError:
-        return str(text)
+    x = _number_or_text(text)
+    if isinstance(x, str):
+        return x
     return f"{x:.2e}" if math.isfinite(x) else "--"        # published 0: no relative difference
 
 
