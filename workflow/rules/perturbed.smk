@@ -187,7 +187,7 @@ def pt_stage_jsons():
         for d in pt_e6_dates():
             out[f"e6_{d}"] = f"{PTDIR}/e6/{d}.json"
     if "e8" in run:
-        for m in PT["cases"]["e8"]["models"]:
+        for m in E8.get("run_models", PT["cases"]["e8"]["models"]):
             for n in E8["run_n_rev"]:
                 out[f"e8_{m}_n{_pt_fmt(n)}"] = f"{PTDIR}/e8/{m}_n{_pt_fmt(n)}.json"
     return out
