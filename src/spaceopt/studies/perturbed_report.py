@@ -33,9 +33,10 @@ COLUMNS = {
 HEADERS = {"model": ("model", ""), "date": ("departure", ""), "n_rev": ("revolutions", ""),
            "m_f_kg": ("$m_f$", "kg"), "tof_days": (r"$\Delta t$", "d"), "K_f_deg": ("$K_f$", "deg"),
            "propellant_kg": ("$m_p$", "kg"), "m_p_kg": ("$m_p$", "kg"), "dv_m_s": (r"$\Delta V$", "m/s"),
-           "burn_h": ("burn time", "h")}
+           "burn_h": ("burn time", "h"), "dm_f_kg": (r"$m_f - m_f^{\mathrm{unp}}$", "kg"),
+           "dtof_days": (r"$\Delta t - \Delta t^{\mathrm{unp}}$", "d")}
 TABLE_CAPTIONS = {"e5": "E5, 5-revolution HEO to HEO (Table 4.2.1.2 scalars)",
-                  "e6_date_scan": "E6, departure-date scan over May 2021",
+                  "e6_date_scan": "E6, departure-date scan over May 2021: 4$\\times$4 + Moon + Sun, and the differences from the unperturbed solution",
                   "e7": "E7, 100-revolution GTO to Molniya, 1 N",
                   "e8": "E8, GTO to GEO case B against the number of revolutions",
                   "e9": "E9, 63.007-revolution LEO to LEO, 1 N (Table 4.2.3.2)"}
@@ -46,7 +47,7 @@ FIGURE_CAPTIONS = {
     "fig_4_2_1_3": "E5: switching function, pitch and yaw against time",
     "fig_4_2_1_4": "E6: final mass and transfer time against the departure date",
     "fig_4_2_1_5": "E6: initial costates against the departure date",
-    "fig_4_2_1_6": "E7: GTO to Molniya trajectory projections",
+    "fig_4_2_1_6": "E7: GTO to Molniya, unperturbed (top) and perturbed (bottom): projections on the J2000 planes and 3-D view (thick: burns)",
     "fig_4_2_2_1": "E8: GTO to GEO case B trajectory projections",
     "fig_4_2_2_3": "E8: pitch, yaw and switching function against time",
     "fig_4_2_2_5": "E8: propellant against the number of revolutions and the transfer time",
@@ -241,18 +242,32 @@ def markdown(tabs: dict, e6sum: dict | None = None, budget: dict | None = None) 
     return "\n".join(out) + "\n"
 
 
+def e6_wide(rows: list) -> list:
+    """The E6 rows one line per date: the perturbed m_f and Δt and their differences from the
+    unperturbed line of the same date (the LaTeX table; the CSV keeps one row per model)."""
+    unp = {r["date"]: r for r in rows if r["model"] == "unperturbed"}
+    return [{"date": r["date"], "m_f_kg": r["m_f_kg"], "tof_days": r["tof_days"],
+             **({"dm_f_kg": r["m_f_kg"] - unp[r["date"]]["m_f_kg"],
+                 "dtof_days": r["tof_days"] - unp[r["date"]]["tof_days"]} if r["date"] in unp else {})}
+            for r in rows if r["model"] != "unperturbed"]
+
+
+LATEX_LAYOUT = {"e6_date_scan": (["date", "m_f_kg", "tof_days", "dm_f_kg", "dtof_days"], e6_wide)}
+
+
 def latex(tabs: dict) -> str:
     out = []
     for name, cols in COLUMNS.items():
         if not tabs[name]:
             continue
+        cols, layout = LATEX_LAYOUT.get(name, (cols, list))
         out.append(r"\begin{table}[htbp]\centering\small")
         out.append(r"\caption{" + TABLE_CAPTIONS[name] + ", ours.}")
         out.append(r"\begin{tabular}{l" + "r" * (len(cols) - 1) + "}")
         out.append(r"\toprule")
         out.append(" & ".join(HEADERS[c][0] + (f", {HEADERS[c][1]}" if HEADERS[c][1] else "") for c in cols) + r" \\")
         out.append(r"\midrule")
-        for r in tabs[name]:
+        for r in layout(tabs[name]):
             out.append(" & ".join(_cell(c, r.get(c, "")) for c in cols) + r" \\")
         out.append(r"\bottomrule")
         out.append(r"\end{tabular}")
