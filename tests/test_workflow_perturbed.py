@@ -1,0 +1,42 @@
+"""Workflow tests of the §4.2 part of the DAG (dry run of the full reproduction): how the E6 dates
+and the E8 revolution counts are warm-started, read from the plan Snakemake prints."""
+import re
+from pathlib import Path
+
+import yaml
+from workflow_skeleton import planned_rules, repo_snakemake as smk
+
+ROOT = Path(__file__).resolve().parents[1]
+PT = yaml.safe_load((ROOT / "config/studies/perturbed.yaml").read_text())["perturbed"]
+
+
+def planned_inputs(text: str, rule: str) -> dict:
+    """{first output: [inputs]} of every planned job of ``rule`` in a dry run's output."""
+    out = {}
+    for block in re.split(r"\n(?=\[.*\]\nrule |rule )", text):
+        if not re.match(rf"(\[.*\]\n)?rule {rule}:", block):
+            continue
+        inputs = re.search(r"^\s*input: (.*)$", block, re.M).group(1).split(", ")
+        output = re.search(r"^\s*output: ([^,\n]*)", block, re.M).group(1)
+        out[output] = inputs
+    return out
+
+
+def test_full_reproduction_plans_e6_dates_from_the_unperturbed_solve_and_e8_counts_in_a_chain():
+    rc, out = smk("-n", "--forceall", "--cores", "2", "results/perturbed/e6_date_scan.csv",
+                  "results/perturbed/e8.csv")
+    assert rc == 0, out[-2000:]
+    jobs = planned_rules(out)
+    assert {"e6", "e8"} <= set(PT["run"])
+    e6 = planned_inputs(out, "perturbed_e6_date")
+    assert len(e6) == jobs["perturbed_e6_date"] == 31
+    assert PT["e6"]["warm_start"] == "unperturbed"
+    for inputs in e6.values():                       # independent jobs, all from one solve
+        assert "results/perturbed/e5/unperturbed.json" in inputs
+        assert not any(i.startswith("results/perturbed/e6/") for i in inputs)
+    e8 = planned_inputs(out, "perturbed_e8")
+    ns = sorted(PT["e8"]["run_n_rev"])
+    assert len(e8) == len(ns) * len(PT["e8"]["run_models"])
+    for m in PT["e8"]["run_models"]:
+        for lo, hi in zip(ns, ns[1:]):               # each count from the next smaller one
+            assert f"results/perturbed/e8/{m}_n{lo:g}.json" in e8[f"results/perturbed/e8/{m}_n{hi:g}.json"]
