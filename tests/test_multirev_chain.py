@@ -127,6 +127,17 @@ def test_ot_via_tmin_route_reaches_the_blend_solution(e1):
     np.testing.assert_allclose(ot.z, e1["ot"].z, rtol=1e-6, atol=1e-9)
 
 
+def test_smoothed_continuation_reaches_the_direct_one(e1):
+    """continue_in_params_smoothed (ε_f → 10⁻² → move → ε_f, the E8 n → n route) ends on the
+    extremal the direct continuation at ε_f reaches: E1 OT at 15 → 16 N."""
+    q = chain.ContinuationOptions(verbose=False)
+    direct = chain.continue_ot_in_thrust(e1["ot"], 16.0, q)
+    tr = e1["ot"].transfer
+    detour = chain.continue_in_params_smoothed(e1["ot"], tr.params(thrust=16.0), 1e-2, q)
+    assert detour.stats["final_residual"] < 1e-9 and detour.stats["eps_smooth"] == 1e-2
+    np.testing.assert_allclose(detour.z, direct.z, rtol=1e-7, atol=1e-10)
+
+
 def test_thrust_continuation_from_the_ot_solution(e1):
     """continue_ot_in_thrust (the Table 4.1.3 / E4 route, chain.continue_in_params): 15 -> 16 N
     converges and m_f grows with T (R19)."""

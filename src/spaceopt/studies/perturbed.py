@@ -16,7 +16,8 @@ Warm starts (allowed: neighbouring *solved* cases of the same chain):
 * E6 date → date and E9 model → model: a Newton homotopy f(z, τ) = (1 − τ) f(z_prev) at the
   *new* problem data (``chain.continue_in_params`` with nothing to move; the epoch and the force
   model are pytree data of ``prm['pert']``, so the new date costs no recompilation);
-* E8 n → n: ``chain.continue_in_params`` moving L_f.
+* E8 n → n: ``chain.continue_in_params_smoothed`` moving L_f at ε = ε₁ (10⁻²), where the
+  control is smooth, between an ε homotopy up from ε_f and one back down.
 
 The ΔΩ budget of E9 (spec 02-multirev §6) is the secular J2 drift of the osculating initial
 orbit, dΩ/dt = −(3/2) n J₂ (R/p)² cos i, dω/dt = (3/4) n J₂ (R/p)² (5 cos² i − 1), compared
@@ -26,6 +27,7 @@ osculating Ω difference after the same time).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time
 from pathlib import Path
@@ -166,8 +168,9 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None) -> Solu
     Perturbed → perturbed: thrust, L₀, L_f, c and a new departure epoch move linearly in τ;
     everything else (the force model) is the new problem's from τ = 0 on, and the Newton
     homotopy f(z, τ) = (1 − τ) b absorbs the initial residual b; followed in τ, and in arclength where
-    the τ-path stalls (a turning point). Unperturbed → perturbed: :func:`perturb_from_unperturbed`.
-    The path used is in ``stats['warm_path']``.
+    the τ-path stalls (a turning point). A change of n_rev moves L_f at ε₁ through
+    :func:`chain.continue_in_params_smoothed`. Unperturbed → perturbed:
+    :func:`perturb_from_unperturbed`. The path used is in ``stats['warm_path']``.
     """
     if sol.transfer.perturbed and not tr_to.perturbed:
         raise ConfigError("warm_start", tr_to.perturbations, "cannot warm-start an unperturbed problem from a perturbed one")
@@ -181,11 +184,15 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None) -> Solu
         shift = float(sol.prm["pert"].epoch) - float(prm_to["pert"].epoch)
         sol = dataclasses.replace(sol, prm={**sol.prm, "epoch_offset_s": jnp.asarray(shift)})
         prm_to = {**prm_to, "epoch_offset_s": jnp.asarray(0.0)}
+    move = chain.continue_in_params
+    if sol.transfer.n_rev != tr_to.n_rev:
+        # more revolutions add burn arcs: move L_f at the smoothing ε₁ of the blend (E8)
+        move = functools.partial(chain.continue_in_params_smoothed, eps_smooth=tr_to.eps_blend)
     try:
-        out = chain.continue_in_params(sol, prm_to, options, label=label)
+        out = move(sol, prm_to, options, label=label)
         out.stats["warm_path"] = "tau"
     except ConvergenceError as exc:
-        out = chain.continue_in_params(sol, prm_to, None, label=label + " (arclength)", path="arclength")
+        out = move(sol, prm_to, None, label=label + " (arclength)", path="arclength")
         out.stats.update(warm_path="arclength", tau_path_failure=str(exc))
     out.transfer, out.thrust_N = tr_to, sol.thrust_N
     return out
