@@ -29,7 +29,7 @@ def main(sm):
         F.costates_vs_date([k[3:] for k in keys], [payloads[k]["scalars"]["costates"] for k in keys], out / "fig_4_2_1_5")
     if "e7" in run:
         runs = {m: npz(f"e7_{m}") for m in cases["e7"]["models"] if f"e7_{m}" in stages}
-        F.projections(runs, "E7: GTO -> Molniya, 100 rev, 1 N", out / "fig_4_2_1_6")
+        F.projections_3d(runs, "E7: GTO -> Molniya, 100 rev, 1 N (thick: burns)", out / "fig_4_2_1_6")
     if "e8" in run:
         n = max(sm.params.e8_n)
         runs = {m: npz(f"e8_{m}_n{float(n):g}") for m in cases["e8"]["models"] if f"e8_{m}_n{float(n):g}" in stages}

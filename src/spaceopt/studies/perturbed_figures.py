@@ -44,6 +44,42 @@ def projections(runs: dict, title: str, path, unit_km=1e3, dpi=150):
     plt.close(fig)
 
 
+def projections_3d(runs: dict, title: str, path, unit_km=1e3):
+    """One row per run: the x-y, x-z, y-z projections (ICRS/J2000 axes) and a 3-D view, on common
+    limits (E7, Fig. 4.2.1.6); thick: burns, thin: coasts; o: departure, x: arrival."""
+    unit = "km" if unit_km == 1.0 else ("10³ km" if unit_km == 1e3 else f"{unit_km:g} km")
+    rs = {label: np.asarray(s["r_m"]) / unit_km / 1e3 for label, s in runs.items()}
+    allr = np.concatenate(list(rs.values())) if rs else np.zeros((1, 3))
+    mid = 0.5 * (allr.max(axis=0) + allr.min(axis=0))
+    half = 0.525 * float((allr.max(axis=0) - allr.min(axis=0)).max())
+    lims = [(c - half, c + half) for c in mid]
+    fig = plt.figure(figsize=(17, 4.3 * max(len(runs), 1)))
+    for row, (label, s) in enumerate(runs.items()):
+        r, burn, color = rs[label], np.asarray(s["delta"]) > 0.5, COLORS.get(label, "k")
+        for col, (i, j) in enumerate(((0, 1), (0, 2), (1, 2))):
+            ax = fig.add_subplot(len(runs), 4, 4 * row + col + 1)
+            ax.plot(r[:, i], r[:, j], color=color, lw=0.25, alpha=0.5)
+            ax.plot(np.where(burn, r[:, i], np.nan), np.where(burn, r[:, j], np.nan), color=color, lw=0.8)
+            ax.plot(r[0, i], r[0, j], "o", color="k", ms=4)
+            ax.plot(r[-1, i], r[-1, j], "x", color="k", ms=6)
+            ax.plot(0, 0, "+", color="k", ms=5)
+            ax.set_xlim(*lims[i]); ax.set_ylim(*lims[j]); ax.set_aspect("equal")
+            ax.set_xlabel(f"{'xyz'[i]}, {unit}"); ax.set_ylabel(f"{'xyz'[j]}, {unit}")
+            if col == 0:
+                ax.set_title(label, loc="left", fontsize=10, color=color)
+        ax = fig.add_subplot(len(runs), 4, 4 * row + 4, projection="3d")
+        ax.plot(r[:, 0], r[:, 1], r[:, 2], color=color, lw=0.2, alpha=0.5)
+        ax.plot(np.where(burn, r[:, 0], np.nan), np.where(burn, r[:, 1], np.nan),
+                np.where(burn, r[:, 2], np.nan), color=color, lw=0.6)
+        ax.set_xlim(*lims[0]); ax.set_ylim(*lims[1]); ax.set_zlim(*lims[2]); ax.set_box_aspect((1, 1, 1))
+        ax.set_xlabel(f"x, {unit}", fontsize=8); ax.set_ylabel(f"y, {unit}", fontsize=8)
+        ax.set_zlabel(f"z, {unit}", fontsize=8); ax.tick_params(labelsize=7)
+    fig.suptitle(title)
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)
+
+
 LABELS = {"a_m": "a, km", "e": "e", "i_deg": "i, deg", "raan_deg": "Ω, deg", "argp_deg": "ω, deg",
           "S": "S", "pitch_deg": "pitch, deg", "yaw_deg": "yaw, deg", "delta": "δ"}
 
