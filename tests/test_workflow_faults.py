@@ -237,3 +237,19 @@ def test_scoreboard_refuses_a_malformed_reproduction_table(tmp_path):
         build([bad], tmp_path / "s.csv", tmp_path / "s.md", tmp_path / "s.tex")
     with pytest.raises(ArtifactError, match="missing"):
         build([tmp_path / "nope" / "reproduction.csv"], tmp_path / "s.csv", tmp_path / "s.md", tmp_path / "s.tex")
+
+
+def test_a_bug_keeps_its_traceback_in_the_log_and_says_one_line(capfd):
+    """run_step: an exception that is not a SpaceoptError is a bug; its traceback goes to the
+    rule's log (sys.stderr while the script runs), the console gets one line, exit status 1."""
+    import io
+    from contextlib import redirect_stderr
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "workflow" / "scripts"))
+    from _step import run_step
+    log = io.StringIO()
+    with redirect_stderr(log), pytest.raises(SystemExit) as exit_:
+        run_step(lambda: 1 / 0)
+    assert exit_.value.code == 1
+    assert "Traceback" in log.getvalue() and "ZeroDivisionError" in log.getvalue()
+    assert capfd.readouterr().err.strip().splitlines() == [
+        "error: internal error ZeroDivisionError: division by zero (traceback in the rule's log)"]

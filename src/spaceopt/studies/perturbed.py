@@ -189,10 +189,10 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None) -> Solu
         # more revolutions add burn arcs: move L_f at the smoothing ε₁ of the blend (E8)
         move = functools.partial(chain.continue_in_params_smoothed, eps_smooth=tr_to.eps_blend)
     try:
-        out = move(sol, prm_to, options, label=label)
+        out = move(sol, prm_to, options=options, label=label)
         out.stats["warm_path"] = "tau"
     except ConvergenceError as exc:
-        out = move(sol, prm_to, None, label=label + " (arclength)", path="arclength")
+        out = move(sol, prm_to, options=None, label=label + " (arclength)", path="arclength")
         out.stats.update(warm_path="arclength", tau_path_failure=str(exc))
     out.transfer, out.thrust_N = tr_to, sol.thrust_N
     return out
