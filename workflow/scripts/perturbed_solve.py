@@ -24,6 +24,8 @@ def main(sm):
     tr = P.transfer_from_config(cfg, case, model, **kw)
     label = f"{case}/{model}" + (f"/{kw['epoch_utc'][:10]}" if "epoch_utc" in kw else "") + \
         (f"/n{kw['n_rev']:g}" if "n_rev" in kw else "")
+    # perturbations switched on at the blend's ε₁ rather than at ε_f (case option)
+    eps_smooth = tr.eps_blend if cfg["cases"][case].get("perturb_smoothed", False) else None
     t0 = time.perf_counter()
 
     def fail(exc, suffix):
@@ -49,12 +51,12 @@ def main(sm):
                 fail(exc, ".chain_failure.json")
                 print(f"[{label}] chain from the zero guess failed ({exc}); warm start from "
                       f"{sm.input.start}", file=sys.stderr, flush=True)
-                sol = P.warm_start(P.load(sm.input.start), tr, label + "/warm")
+                sol = P.warm_start(P.load(sm.input.start), tr, label + "/warm", eps_smooth=eps_smooth)
                 extra = {"continued_from": str(sm.input.start), "route": route,
                          "chain_failure": {"error": str(exc), "diagnosis": exc.diagnosis}}
         else:
             start = P.load(sm.input.start)
-            sol = P.warm_start(start, tr, label)
+            sol = P.warm_start(start, tr, label, eps_smooth=eps_smooth)
             extra = {"continued_from": str(sm.input.start)}
     except ConvergenceError as exc:
         fail(exc, ".failure.json")

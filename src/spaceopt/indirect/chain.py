@@ -250,32 +250,47 @@ def continue_in_params(sol: Solution, prm_to: dict, options=None, label="param",
     return out
 
 
-def continue_in_params_smoothed(sol: Solution, prm_to: dict, eps_smooth: float, options=None,
-                                label="param", path: str = "tau") -> Solution:
-    """:func:`continue_in_params` of an OT solution through a smoother control: ε from ε_f up to
-    ``eps_smooth`` (the ε homotopy run backwards), the data moved at ``eps_smooth``, then ε back
-    down to ε_f at the new data.
+def smoothing_to(sol: Solution, eps_to: float, options=None, label="eps") -> Solution:
+    """The OT solution ``sol`` (at ε = prm['eps_final']) moved to ε = ``eps_to`` at the same data
+    by the ε homotopy (log-uniform in τ; upwards too). The result carries eps_final = eps_to."""
+    if sol.stage != "ot":
+        raise ValueError("the smoothing homotopy is for OT solutions")
+    sh = shooting_for("ot", "eps", sol.transfer)
+    prm = {**sol.prm, "eps_blend": sol.prm["eps_final"], "eps_final": jnp.asarray(eps_to)}
+    z, stats = _run(sh, sol.z, prm, label, options)
+    return Solution("ot", sol.shooting, z, {**sol.prm, "eps_final": jnp.asarray(eps_to)},
+                    sol.transfer, stats, thrust_N=sol.thrust_N)
+
+
+def through_smoothing(sol: Solution, eps_smooth: float, step, options=None, label="param") -> Solution:
+    """``step`` (Solution → Solution) done at ε = ``eps_smooth`` instead of ε_f: ε up from ε_f,
+    the step, ε back down to ε_f. Statistics of the three stages and their sums.
 
     Near bang-bang (ε_f = 10⁻⁵) a change of the data that adds or removes burn arcs (E8: more
     revolutions) makes the path stiff: continued at ε_f, E8 200 → 250 revolutions reached only
     τ = 0.24 in 74 Jacobian evaluations; through ε = 10⁻² the whole move took 87 (12 up, 56 to
     move, 19 down).
     """
-    if sol.stage != "ot":
-        raise ValueError("the smoothing detour is for OT solutions")
-    sh = shooting_for("ot", "eps", sol.transfer)
     eps_f = float(sol.prm["eps_final"])
-    up = {**sol.prm, "eps_blend": jnp.asarray(eps_f), "eps_final": jnp.asarray(eps_smooth)}
-    z, st_up = _run(sh, sol.z, up, label + " eps up", options)
-    moved = continue_in_params(dataclasses.replace(sol, z=z, prm=up),
-                               {**prm_to, "eps_final": jnp.asarray(eps_smooth)}, options, label, path)
-    down = {**prm_to, "eps_blend": jnp.asarray(eps_smooth), "eps_final": jnp.asarray(eps_f)}
-    z, st_down = _run(sh, moved.z, down, label + " eps down", options)
-    stats = {"eps_up": st_up, "move": moved.stats, "eps_down": st_down, "eps_smooth": eps_smooth,
-             **{k: st_up[k] + moved.stats[k] + st_down[k] for k in st_up
-                if k != "final_residual" and isinstance(st_up[k], (int, float)) and k in st_down},
-             "final_residual": st_down["final_residual"]}
-    return Solution("ot", sol.shooting, z, dict(prm_to), sol.transfer, stats, thrust_N=sol.thrust_N)
+    up = smoothing_to(sol, eps_smooth, options, label + " eps up")
+    moved = step(up)
+    down = smoothing_to(moved, eps_f, options, label + " eps down")
+    parts = {"eps_up": up.stats, "step": moved.stats, "eps_down": down.stats}
+    down.stats = {**parts, "eps_smooth": eps_smooth,
+                  **{k: sum(p[k] for p in parts.values()) for k in up.stats
+                     if k != "final_residual" and isinstance(up.stats[k], (int, float))
+                     and all(k in p for p in parts.values())},
+                  "final_residual": down.stats["final_residual"]}
+    return down
+
+
+def continue_in_params_smoothed(sol: Solution, prm_to: dict, eps_smooth: float, options=None,
+                                label="param", path: str = "tau") -> Solution:
+    """:func:`continue_in_params` of an OT solution done at ε = ``eps_smooth``
+    (:func:`through_smoothing`)."""
+    def step(up):
+        return continue_in_params(up, {**prm_to, "eps_final": jnp.asarray(eps_smooth)}, options, label, path)
+    return through_smoothing(sol, eps_smooth, step, options, label)
 
 
 def continue_ot_in_thrust(ot: Solution, thrust_N: float, options=None, label="ot-thrust") -> Solution:

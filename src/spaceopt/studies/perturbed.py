@@ -48,7 +48,8 @@ AE_KEYS = ("a_km", "e")
 ANGLE_KEYS = ("i_deg", "raan_deg", "argp_deg")
 CASE_KEYS = ("initial", "final", "L0_deg", "n_rev", "m0_kg", "isp_s", "thrust_N", "epoch_utc",
              "ephemeris", "models")
-OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref", "route", "model_start", "fallback")
+OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref", "route", "model_start", "fallback",
+                      "perturb_smoothed")
 
 
 def _number(cfg, key, path, positive=False):
@@ -162,7 +163,7 @@ def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False, path: str = 
     return lp, ot
 
 
-def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None) -> Solution:
+def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smooth: float | None = None) -> Solution:
     """From a converged OT solution to the problem of ``tr_to`` (new date, model or n_rev).
 
     Perturbed → perturbed: thrust, L₀, L_f, c and a new departure epoch move linearly in τ;
@@ -175,7 +176,7 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None) -> Solu
     if sol.transfer.perturbed and not tr_to.perturbed:
         raise ConfigError("warm_start", tr_to.perturbations, "cannot warm-start an unperturbed problem from a perturbed one")
     if not sol.transfer.perturbed and tr_to.perturbed:
-        return perturb_from_unperturbed(sol, tr_to, label)
+        return perturb_from_unperturbed(sol, tr_to, label, eps_smooth=eps_smooth)
     prm_to = tr_to.params(thrust=sol.thrust_N)
     if sol.transfer.epoch_utc != tr_to.epoch_utc:
         # new departure date (E6): the epoch moves continuously from the old date to the new one
@@ -198,23 +199,35 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None) -> Solu
     return out
 
 
-def perturb_from_unperturbed(sol: Solution, tr_to: Transfer, label: str, path: str = "arclength") -> Solution:
+def perturb_from_unperturbed(sol: Solution, tr_to: Transfer, label: str, path: str = "arclength",
+                             eps_smooth: float | None = None) -> Solution:
     """Unperturbed OT solution → the perturbed OT problem of ``tr_to`` (same orbits, thrust).
 
     z gains p_t(0) = 0; the perturbations are switched on by τ (flow.Model('ot', 'pert'):
     pure OT at ε_f plus τ H_p — the perturbation switch of (3.3.1) on its own), followed in τ or
     in arclength (default: E5's strength path has an S-shaped pair of folds, τ ≈ 0.318 and
     0.221; the Newton homotopy f_p(z, τ) = (1 − τ) f_p(z₀) at the perturbed problem folds at
-    τ ≈ 0.957 and runs back to τ < 0).
+    τ ≈ 0.957 and runs back to τ < 0). ``eps_smooth``: switch them on at that ε instead of ε_f
+    (:func:`chain.through_smoothing`; case option ``perturb_smoothed``), for transfers with
+    many burn arcs, where the switch at ε_f stalls (E7: τ = 0.3728 after 42 Jacobians).
     """
     sh_p = chain.shooting_for("ot", "eps", tr_to)
-    names_u = sol.shooting.unknown_names()
-    z = np.asarray([0.0 if n == "p_t" else float(sol.z[names_u.index(n)]) for n in sh_p.unknown_names()])
-    prm = tr_to.params(thrust=sol.thrust_N)
     sh_pert = dataclasses.replace(sh_p, model=dataclasses.replace(sh_p.model, homotopy="pert"))
-    z, stats = chain._run(sh_pert, z, prm, label, None, path=path)
-    stats["continued_from"] = "unperturbed OT (perturbations switched on by tau)"
-    return Solution("ot", sh_p, z, prm, tr_to, stats, thrust_N=sol.thrust_N)
+    names_u = sol.shooting.unknown_names()
+
+    def switch_on(unp: Solution) -> Solution:
+        z = np.asarray([0.0 if n == "p_t" else float(unp.z[names_u.index(n)]) for n in sh_p.unknown_names()])
+        prm = tr_to.params(thrust=sol.thrust_N)
+        if eps_smooth is not None:
+            prm["eps_final"] = unp.prm["eps_final"]              # = eps_smooth (through_smoothing)
+        z, stats = chain._run(sh_pert, z, prm, label, None, path=path)
+        return Solution("ot", sh_p, z, prm, tr_to, stats, thrust_N=sol.thrust_N)
+
+    out = switch_on(sol) if eps_smooth is None else chain.through_smoothing(sol, eps_smooth, switch_on, None, label)
+    out.stats["continued_from"] = "unperturbed OT (perturbations switched on by tau" + (
+        f" at eps = {eps_smooth:g})" if eps_smooth is not None else ")")
+    out.thrust_N = sol.thrust_N
+    return out
 
 
 load = multirev.load     # rebuilds perturbed solutions too (model.perturbed in the artifact)
