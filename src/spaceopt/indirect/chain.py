@@ -122,12 +122,15 @@ def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None, path
     return np.asarray(z), stats
 
 
-def _merge_stats(first: str, stats: dict, stats_eps: dict) -> dict:
-    """Statistics of a homotopy followed by the ε stage: both, and their summed counters."""
-    return {first: stats, "eps": stats_eps,
-            **{k: stats[k] + stats_eps[k] for k in stats
-               if k != "final_residual" and isinstance(stats[k], (int, float)) and k in stats_eps},
-            "final_residual": stats_eps["final_residual"]}
+def _merge_stats(parts: dict) -> dict:
+    """Statistics of consecutive stages ({name: stats}, in order): each stage's, their summed
+    counters, and the final residual of the last stage."""
+    stages = list(parts.values())
+    return {**parts,
+            **{k: sum(p[k] for p in stages) for k in stages[0]
+               if k != "final_residual" and isinstance(stages[0][k], (int, float))
+               and all(k in p for p in stages)},
+            "final_residual": stages[-1]["final_residual"]}
 
 
 def solve_lp(tr: Transfer, options=None, label="lp", perturbed: bool = False) -> Solution:
@@ -203,7 +206,7 @@ def solve_ot(lp: Solution, thrust_N: float, options=None, label="ot", blend_ref:
     sh_eps = shooting_for("ot", "eps", tr)
     if tr.eps_blend > tr.eps_final:
         z, stats_eps = _run(sh_eps, z, prm, label + " eps", options)
-        stats = _merge_stats("lp_to_ot", stats, stats_eps)
+        stats = _merge_stats({"lp_to_ot": stats, "eps": stats_eps})
     return Solution("ot", sh_eps, z, tr.params(thrust=thrust_N), tr, stats, thrust_N=thrust_N)
 
 
@@ -226,7 +229,7 @@ def solve_ot_from_tmin(tmin: Solution, thrust_N: float, options=None, label="ot"
     z = z[:sh_eps.size]                                  # drop T (= T_OT at τ = 1)
     if tr.eps_blend > tr.eps_final:
         z, stats_eps = _run(sh_eps, z, prm, label + " eps", options)
-        stats = _merge_stats("tmin_to_ot", stats, stats_eps)
+        stats = _merge_stats({"tmin_to_ot": stats, "eps": stats_eps})
     stats["route"] = "lp-tmin-ot"
     return Solution("ot", sh_eps, z, prm, tr, stats, thrust_N=thrust_N)
 
@@ -275,12 +278,8 @@ def through_smoothing(sol: Solution, eps_smooth: float, step, options=None, labe
     up = smoothing_to(sol, eps_smooth, options, label + " eps up")
     moved = step(up)
     down = smoothing_to(moved, eps_f, options, label + " eps down")
-    parts = {"eps_up": up.stats, "step": moved.stats, "eps_down": down.stats}
-    down.stats = {**parts, "eps_smooth": eps_smooth,
-                  **{k: sum(p[k] for p in parts.values()) for k in up.stats
-                     if k != "final_residual" and isinstance(up.stats[k], (int, float))
-                     and all(k in p for p in parts.values())},
-                  "final_residual": down.stats["final_residual"]}
+    down.stats = {**_merge_stats({"eps_up": up.stats, "step": moved.stats, "eps_down": down.stats}),
+                  "eps_smooth": eps_smooth}
     return down
 
 
