@@ -1,4 +1,5 @@
 """Provenance and determinism of artifacts and figures (design.md, "Artifacts"; conventions.md)."""
+import difflib
 import json
 import shutil
 import subprocess
@@ -121,6 +122,17 @@ def test_figures_byte_stable_without_source_date_epoch(tmp_path, monkeypatch):
 
 
 @pytest.mark.skipif(shutil.which("latexmk") is None, reason="TeX is not installed (./dev setup installs it)")
+def _pdf_difference(a: Path, b: Path) -> str:
+    """What differs between two PDFs, for the failure message: sizes and, with pdftotext, the
+    first differing lines of their text (the flake seen under load: one build a pass behind)."""
+    out = [f"{a.name}: {a.stat().st_size} B, {b.name}: {b.stat().st_size} B"]
+    if shutil.which("pdftotext"):
+        texts = [subprocess.run(["pdftotext", str(p), "-"], capture_output=True, text=True).stdout.splitlines()
+                 for p in (a, b)]
+        out += [line for line in difflib.unified_diff(*texts, lineterm="", n=1)][:40]
+    return "\n".join(out)
+
+
 def test_paper_pdf_is_byte_stable(tmp_path):
     """Two builds of the paper from the same generated fragments give identical PDF bytes."""
     from spaceopt.report import paper as P
@@ -145,7 +157,8 @@ def test_paper_pdf_is_byte_stable(tmp_path):
                                "--epoch", "1767225600"], cwd=ROOT, capture_output=True, text=True, timeout=300)
         assert proc.returncode == 0, proc.stderr[-3000:]
         pdfs.append(out.read_bytes())
-    assert pdfs[0][:5] == b"%PDF-" and pdfs[0] == pdfs[1]
+    assert pdfs[0][:5] == b"%PDF-"
+    assert pdfs[0] == pdfs[1], _pdf_difference(tmp_path / "one.pdf", tmp_path / "two.pdf")
     if shutil.which("pdfinfo"):
         info = subprocess.run(["pdfinfo", str(tmp_path / "one.pdf")], capture_output=True, text=True).stdout
         assert "CreationDate" not in info and "ModDate" not in info      # no wall-clock dates
