@@ -121,7 +121,6 @@ def test_figures_byte_stable_without_source_date_epoch(tmp_path, monkeypatch):
     assert out[0] == out[1]
 
 
-@pytest.mark.skipif(shutil.which("latexmk") is None, reason="TeX is not installed (./dev setup installs it)")
 def _pdf_difference(a: Path, b: Path) -> str:
     """What differs between two PDFs, for the failure message: sizes and, with pdftotext, the
     first differing lines of their text (the flake seen under load: one build a pass behind)."""
@@ -133,6 +132,7 @@ def _pdf_difference(a: Path, b: Path) -> str:
     return "\n".join(out)
 
 
+@pytest.mark.skipif(shutil.which("pdflatex") is None, reason="TeX is not installed (./dev setup installs it)")
 def test_paper_pdf_is_byte_stable(tmp_path):
     """Two builds of the paper from the same generated fragments give identical PDF bytes."""
     from spaceopt.report import paper as P
