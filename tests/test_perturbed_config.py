@@ -157,3 +157,19 @@ def test_arclength_passes_a_fold_in_tau():
     cont = Continuation(ev, ContinuationOptions(verbose=False))
     with pytest.raises(ConvergenceError):
         cont.run(np.array([-2.0]))
+
+
+def test_arclength_gives_up_a_path_that_runs_back_below_the_floor():
+    """z² + 1 = 2(1 − τ) from z = 1 has no root at τ = 1: the path folds at τ = ½ (z = 0) and runs
+    back towards τ → −∞; the follower stops below ``tau_floor`` with a diagnosis, not at max_steps."""
+    import numpy as np
+    from spaceopt.errors import ConvergenceError
+    from spaceopt.indirect.continuation import ArclengthContinuation, ArclengthOptions
+
+    def ev(z, tau):
+        return np.atleast_1d(z**2 + 1.0), np.array([[2.0 * z[0]]]), np.zeros(1), 0, True
+
+    arc = ArclengthContinuation(ev, ArclengthOptions(verbose=False, tau_floor=-1.0))
+    with pytest.raises(ConvergenceError, match="turned back") as err:
+        arc.run(np.array([1.0]))
+    assert -1.5 < err.value.diagnosis["tau"] < -1.0 and arc.stats.steps < 100

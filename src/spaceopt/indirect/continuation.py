@@ -202,6 +202,7 @@ class ArclengthOptions(ContinuationOptions):
     h_min: float = 1e-9
     h_max: float = 0.3
     max_steps: int = 400
+    tau_floor: float = -1.0     # the path gave up on τ = 1 once it runs back below this
 
 
 class ArclengthContinuation(Continuation):
@@ -213,8 +214,9 @@ class ArclengthContinuation(Continuation):
     along the previous tangent, initially towards increasing τ), the predictor is u + h t and the
     Newton corrector solves (f − (1 − τ) b, t·(u − u_pred)) = 0. Step control as in
     :class:`Continuation`. When a step crosses τ = 1 the end point is interpolated linearly and
-    polished at τ = 1 (``polish``). Same ``evaluate`` signature as :class:`Continuation`; here
-    τ₀ = 0, τ₁ = 1.
+    polished at τ = 1 (``polish``). A path that turns back and runs below ``tau_floor`` is given
+    up with a diagnosis (E6, 28 May: after a fold at τ 0.78 it ran on to τ = −6). Same
+    ``evaluate`` signature as :class:`Continuation`; here τ₀ = 0, τ₁ = 1.
     """
 
     def __init__(self, evaluate, options: ContinuationOptions | None = None, polish=None):
@@ -269,6 +271,9 @@ class ArclengthContinuation(Continuation):
                 z, tau = z + lam * (uc[:n] - z), 1.0
                 self.stats.history.append({"tau": 1.0, "h": h, "iters": iters, "residual": nF})
                 break
+            if uc[n] < opt.tau_floor:
+                raise self._diagnose(f"the path turned back and ran below tau = {opt.tau_floor:g}",
+                                     uc[:n], uc[n], h, Fc)
             t = tangent(*ev, t)
             z, tau, F = uc[:n], uc[n], Fc
             self.stats.history.append({"tau": tau, "h": h, "iters": iters, "residual": nF})
