@@ -7,13 +7,13 @@ perturbation strength τ = 1) and measures, one check per sub-command:
   jacobian    the propagated ∂f/∂z against central differences; ``--column J --steps ...``
   line        |F(z + α Δz)|₂ along the Newton direction, α = 1, ½, ..., 1/128
   homotopy    a Newton homotopy at τ = 1 from z: F(z) = (1 − σ) F(z₀)
-  path        the switch-on path again from the unperturbed E7 OT with ``--h-max`` and ``--tol``
+  path        the smoothed switch-on again from the unperturbed E7 OT (the pipeline's route,
+              perturbed.perturb_from_unperturbed) with arclength ``--h-max`` and ``--tol``
 
 Usage: python docs/experiments/e7_end_point.py {tolerance|jacobian|line|homotopy|path} [options]
 (from the repository root, after ``./dev reproduce`` has built the E7 artifacts).
 """
 import argparse
-import dataclasses
 import json
 from pathlib import Path
 
@@ -21,7 +21,6 @@ import jax.numpy as jnp
 import numpy as np
 
 from spaceopt.config import load_yaml
-from spaceopt.indirect import chain
 from spaceopt.indirect.continuation import ArclengthOptions, Continuation, ContinuationOptions
 from spaceopt.indirect.shooting import shoot
 from spaceopt.studies import perturbed as P
@@ -34,8 +33,7 @@ def problem():
     """The E7 switch-on shooting problem at full strength: (Shooting, prm, transfer)."""
     pc = load_yaml("config/studies/perturbed.yaml")["perturbed"]
     tr = P.transfer_from_config(pc, "e7", "g44_moon_sun", ephemeris=P.ephemeris_path(RESULTS, "may2021"))
-    sh = chain.shooting_for("ot", "eps", tr)
-    sh = dataclasses.replace(sh, model=dataclasses.replace(sh.model, homotopy="pert"))
+    sh = P.perturbation_switch(tr)
     prm = tr.params(thrust=tr.thrust)
     prm["eps_final"] = EPS_SMOOTH
     return sh, prm, tr
@@ -61,12 +59,10 @@ def main():
     np.set_printoptions(precision=4, linewidth=200)
     sh, prm, tr = problem()
     if a.check == "path":
-        unp = P.load(RESULTS / "perturbed/e7/unperturbed.json")
-        up = chain.smoothing_to(unp, EPS_SMOOTH, None, "e7 eps up")
-        names = unp.shooting.unknown_names()
-        z0 = np.asarray([0.0 if n == "p_t" else float(up.z[names.index(n)]) for n in sh.unknown_names()])
-        opt = ArclengthOptions(h_max=a.h_max, tol_step=a.tol, label="e7 switch")
-        print(chain._run(sh, z0, prm, "e7 switch", opt, path="arclength")[1])
+        opt = ArclengthOptions(h_max=a.h_max, tol_step=a.tol)
+        sol = P.perturb_from_unperturbed(P.load(RESULTS / "perturbed/e7/unperturbed.json"), tr, "e7 switch",
+                                         eps_smooth=EPS_SMOOTH, options=opt)
+        print(sol.stats)
         return
     z = failure_point()
     f, J = residual(sh, prm, z)

@@ -39,6 +39,7 @@ from ..indirect import chain
 from ..indirect import hamiltonians as hm
 from ..indirect.chain import Solution
 from ..indirect.continuation import ContinuationOptions
+from ..indirect.shooting import Shooting
 from ..indirect.transfer import Orbit, Transfer
 from . import multirev
 
@@ -199,8 +200,15 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
     return out
 
 
+def perturbation_switch(tr: Transfer) -> Shooting:
+    """The shooting problem that switches the perturbations of ``tr`` on by τ: OT at ε_f plus
+    τ H_p (flow.Model('ot', 'pert'), the perturbation switch of (3.3.1) on its own)."""
+    sh_p = chain.shooting_for("ot", "eps", tr)
+    return dataclasses.replace(sh_p, model=dataclasses.replace(sh_p.model, homotopy="pert"))
+
+
 def perturb_from_unperturbed(sol: Solution, tr_to: Transfer, label: str, path: str = "arclength",
-                             eps_smooth: float | None = None) -> Solution:
+                             eps_smooth: float | None = None, options=None) -> Solution:
     """Unperturbed OT solution → the perturbed OT problem of ``tr_to`` (same orbits, thrust).
 
     z gains p_t(0) = 0; the perturbations are switched on by τ (flow.Model('ot', 'pert'):
@@ -210,9 +218,10 @@ def perturb_from_unperturbed(sol: Solution, tr_to: Transfer, label: str, path: s
     τ ≈ 0.957 and runs back to τ < 0). ``eps_smooth``: switch them on at that ε instead of ε_f
     (:func:`chain.through_smoothing`; case option ``perturb_smoothed``), for transfers with
     many burn arcs, where the switch at ε_f stalls (E7: τ = 0.3728 after 42 Jacobians).
+    ``options``: continuation options of every stage (default: the path's own).
     """
     sh_p = chain.shooting_for("ot", "eps", tr_to)
-    sh_pert = dataclasses.replace(sh_p, model=dataclasses.replace(sh_p.model, homotopy="pert"))
+    sh_pert = perturbation_switch(tr_to)
     names_u = sol.shooting.unknown_names()
 
     def switch_on(unp: Solution) -> Solution:
@@ -220,10 +229,10 @@ def perturb_from_unperturbed(sol: Solution, tr_to: Transfer, label: str, path: s
         prm = tr_to.params(thrust=sol.thrust_N)
         if eps_smooth is not None:
             prm["eps_final"] = unp.prm["eps_final"]              # = eps_smooth (through_smoothing)
-        z, stats = chain._run(sh_pert, z, prm, label, None, path=path)
+        z, stats = chain._run(sh_pert, z, prm, label, options, path=path)
         return Solution("ot", sh_p, z, prm, tr_to, stats, thrust_N=sol.thrust_N)
 
-    out = switch_on(sol) if eps_smooth is None else chain.through_smoothing(sol, eps_smooth, switch_on, None, label)
+    out = switch_on(sol) if eps_smooth is None else chain.through_smoothing(sol, eps_smooth, switch_on, options, label)
     out.stats["continued_from"] = "unperturbed OT (perturbations switched on by tau" + (
         f" at eps = {eps_smooth:g})" if eps_smooth is not None else ")")
     out.thrust_N = sol.thrust_N
