@@ -80,10 +80,10 @@ def main(argv=None):
     pretex = f"\\def\\resultsdir{{{results}}}{profile_note(a.note)}\\input{{{tex.as_posix()}}}"
     cmd = [pdflatex, "-interaction=nonstopmode", "-halt-on-error", "-file-line-error",
            f"-output-directory={build.resolve()}", f"-jobname={tex.stem}", pretex]
+    log, pdf = build / (tex.stem + ".log"), build / (tex.stem + ".pdf")
     digest = auxiliary_digest(build)
     for n_pass in range(1, MAX_PASSES + 1):
         proc = subprocess.run(cmd, env=env, capture_output=True, text=True, errors="replace")
-        log = build / (tex.stem + ".log")
         if proc.returncode != 0:
             sys.stderr.write(proc.stdout[-20000:])
             raise ArtifactError(f"paper={str(tex)!r}: pdflatex pass {n_pass} failed: {first_error(log)}")
@@ -94,7 +94,6 @@ def main(argv=None):
         raise ArtifactError(f"paper={str(tex)!r}: the auxiliary files still changed after {MAX_PASSES} "
                             f"pdflatex passes (see {log})")
     sys.stderr.write(f"pdflatex: {n_pass} passes, auxiliary files converged\n")
-    pdf = build / (tex.stem + ".pdf")
     if not pdf.exists():
         raise ArtifactError(f"paper={str(tex)!r}: pdflatex wrote no PDF: {first_error(log)}")
     Path(a.out).parent.mkdir(parents=True, exist_ok=True)
