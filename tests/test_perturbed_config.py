@@ -87,6 +87,16 @@ def test_scan_dates_and_warm_start_order():
         P.scan_dates({**PC["e6"], "step_days": 0})
 
 
+def test_scan_start_from_names_scan_dates_without_cycles():
+    e6 = {**PC["e6"], "start_from": {"2021-05-19": "2021-05-18", "2021-05-18": "2021-05-17"}}
+    assert P.scan_start_from(e6) == e6["start_from"]
+    assert P.scan_start_from({**PC["e6"], "start_from": None}) == {}
+    with pytest.raises(ConfigError, match=r"start_from\.2021-05-19.*2021-06-01"):
+        P.scan_start_from({**PC["e6"], "start_from": {"2021-05-19": "2021-06-01"}})
+    with pytest.raises(ConfigError, match="cycle"):
+        P.scan_start_from({**PC["e6"], "start_from": {"2021-05-19": "2021-05-18", "2021-05-18": "2021-05-19"}})
+
+
 def test_raan_budget_matches_spec_section_6():
     tr = P.transfer_from_config(PC, "e9", "j2")
     b = P.raan_budget(tr, 5.0)

@@ -23,6 +23,8 @@ def planned_inputs(text: str, rule: str) -> dict:
 
 
 def test_full_reproduction_plans_e6_dates_from_the_unperturbed_solve_and_e8_counts_in_a_chain():
+    """E6: every date from the unperturbed E5 OT, but the dates of ``start_from`` from their named
+    neighbour; E8: each revolution count from the next smaller one."""
     rc, out = smk("-n", "--forceall", "--cores", "2", "results/perturbed/e6_date_scan.csv",
                   "results/perturbed/e8.csv")
     assert rc == 0, out[-2000:]
@@ -31,9 +33,16 @@ def test_full_reproduction_plans_e6_dates_from_the_unperturbed_solve_and_e8_coun
     e6 = planned_inputs(out, "perturbed_e6_date")
     assert len(e6) == jobs["perturbed_e6_date"] == 31
     assert PT["e6"]["warm_start"] == "unperturbed"
-    for inputs in e6.values():                       # independent jobs, all from one solve
-        assert "results/perturbed/e5/unperturbed.json" in inputs
-        assert not any(i.startswith("results/perturbed/e6/") for i in inputs)
+    start_from = PT["e6"].get("start_from", {})
+    assert start_from, "the test expects some dates to start from a neighbour (perturbed.e6.start_from)"
+    for output, inputs in e6.items():
+        date = output.split("/")[-1][:10]
+        if date in start_from:                       # from the named converged date only
+            assert f"results/perturbed/e6/{start_from[date]}.json" in inputs
+            assert "results/perturbed/e5/unperturbed.json" not in inputs
+        else:                                        # independent jobs, all from one solve
+            assert "results/perturbed/e5/unperturbed.json" in inputs
+            assert not any(i.startswith("results/perturbed/e6/") for i in inputs)
     e8 = planned_inputs(out, "perturbed_e8")
     ns = sorted(PT["e8"]["run_n_rev"])
     assert len(e8) == len(ns) * len(PT["e8"]["run_models"])

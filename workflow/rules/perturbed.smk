@@ -4,9 +4,9 @@
 #   results/perturbed/e8/<model>_n<n>.{json,npz,rrd}    E8 (warm start n to n)
 #   results/perturbed/e9_budget.json                    ΔΩ budget check (spec §6)
 #   results/perturbed/{e5,e6_date_scan,e7,e8,e9}.csv, reproduction.csv, paper_section.tex, figures/
-from snakemake.utils import validate
+from spaceopt.studies.perturbed import scan_start_from
 
-validate(config["perturbed"], "../../config/schema/perturbed.schema.yaml")
+check_section("perturbed", physical=lambda pc: scan_start_from(pc["e6"]))
 PT = config["perturbed"]
 PTDIR = f"{RESULTS}/perturbed"
 PT_SRC = lib_sources("indirect", "elements", "forces", "ephemeris", "frames", "artifacts",
@@ -97,8 +97,11 @@ def pt_e6_source(date):
     """What a date warm-starts from. warm_start: unperturbed (default) — the unperturbed OT of
     the E6 case (date independent), the perturbations then switched on by τ, so every date is
     an independent job; neighbour — the neighbouring date towards the E5 anchor (None: the E5
-    solve itself)."""
+    solve itself). A date of ``start_from`` starts from the converged date named there."""
     from spaceopt.studies.perturbed import scan_dates, scan_order
+    start_from = scan_start_from(E6)
+    if date in start_from:
+        return start_from[date]
     if E6.get("warm_start", "unperturbed") == "unperturbed":
         return "unperturbed"
     anchor = PT["cases"][E6["case"]]["epoch_utc"]

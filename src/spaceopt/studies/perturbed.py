@@ -297,6 +297,27 @@ def scan_order(dates: list[str], anchor: str) -> list[tuple[str, str]]:
     return pairs
 
 
+def scan_start_from(e6: dict) -> dict[str, str]:
+    """``perturbed.e6.start_from``: dates (YYYY-MM-DD) that warm-start from a named, converged
+    neighbouring date instead of the scan's ``warm_start`` route (E6: where the perturbation
+    switch from the unperturbed solve turns back). Checked: both are scan dates, and following
+    the map from any date ends at a date on the default route (no cycle)."""
+    start_from = e6.get("start_from") or {}
+    days = {d[:10] for d in scan_dates(e6)}
+    for date, src in start_from.items():
+        for value in (date, src):
+            if value not in days:
+                raise ConfigError(f"perturbed.e6.start_from.{date}", value, "not a date of the scan")
+    for date in start_from:
+        seen, d = {date}, start_from[date]
+        while d in start_from:
+            if d in seen:
+                raise ConfigError(f"perturbed.e6.start_from.{date}", start_from[date], "the starts form a cycle")
+            seen.add(d)
+            d = start_from[d]
+    return dict(start_from)
+
+
 # ---------------------------------------------------------------- E9 ΔΩ budget
 
 def j2_secular_rates(orbit: Orbit, mu: float, j2: float, radius: float) -> dict:
