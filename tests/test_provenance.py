@@ -162,3 +162,18 @@ def test_paper_pdf_is_byte_stable(tmp_path):
     if shutil.which("pdfinfo"):
         info = subprocess.run(["pdfinfo", str(tmp_path / "one.pdf")], capture_output=True, text=True).stdout
         assert "CreationDate" not in info and "ModDate" not in info      # no wall-clock dates
+
+
+def test_failure_records_are_written_next_to_the_artifact_and_cleared_by_the_next_run(tmp_path):
+    from spaceopt import artifacts
+    from spaceopt.errors import ConvergenceError
+    out = tmp_path / "e6" / "2021-05-19.json"
+    exc = ConvergenceError("e6/2021-05-19: continuation failed", {"reason": "turned back", "tau": -1.1})
+    for suffix in artifacts.FAILURE_SUFFIXES:
+        artifacts.write_failure(artifacts.failure_path(out, suffix), exc, {"a": 1}, 2.0)
+    record = artifacts.read_json(tmp_path / "e6" / "2021-05-19.failure.json")
+    assert record["error"] == str(exc) and record["diagnosis"]["tau"] == -1.1
+    assert record["provenance"]["wall_time_s"] == 2.0
+    (tmp_path / "e6" / "2021-05-18.failure.json").write_text("{}")       # another date's record stays
+    artifacts.clear_failures(out)
+    assert sorted(p.name for p in (tmp_path / "e6").iterdir()) == ["2021-05-18.failure.json"]

@@ -112,6 +112,27 @@ def write_json(path, payload: dict, companions: dict | None = None) -> None:
     _atomic_write(Path(path), lambda fh: fh.write(text.encode()))
 
 
+FAILURE_SUFFIXES = (".failure.json", ".chain_failure.json")
+
+
+def failure_path(out, suffix: str = ".failure.json") -> Path:
+    """The diagnosis file next to artifact ``out``: <stem><suffix>."""
+    out = Path(out)
+    return out.with_name(out.stem + suffix)
+
+
+def write_failure(path, exc, cfg, wall_time_s: float | None = None) -> None:
+    """The diagnosis of a computation that did not converge (``exc``: a ConvergenceError)."""
+    write_json(path, {"error": str(exc), "diagnosis": exc.diagnosis, "provenance": provenance(cfg, wall_time_s)})
+
+
+def clear_failures(out) -> None:
+    """Remove the diagnoses an earlier run left next to ``out`` (called when a run starts, so that
+    a date that converges now does not keep the failure record of an earlier attempt)."""
+    for suffix in FAILURE_SUFFIXES:
+        failure_path(out, suffix).unlink(missing_ok=True)
+
+
 def write_npz(path, **arrays) -> None:
     _atomic_write(Path(path), lambda fh: np.savez(fh, **{k: np.asarray(v) for k, v in arrays.items()}))
 

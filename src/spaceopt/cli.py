@@ -122,8 +122,7 @@ def solve(args) -> int:
         ot = chain.solve_ot(lp, tr.thrust, opts)
         sc = multirev.save(ot, out / "ot.json", cfg, time.perf_counter() - t0)["scalars"]
     except ConvergenceError as exc:
-        artifacts.write_json(out / "failure.json", {"error": str(exc), "diagnosis": exc.diagnosis,
-                                                    "provenance": artifacts.provenance(cfg)})
+        artifacts.write_failure(out / "failure.json", exc, cfg)
         print(f"error: {exc} (diagnosis in {out / 'failure.json'})", file=sys.stderr)
         return 2
     print(json.dumps({k: sc[k] for k in ("tof_days", "m_f_kg", "burn_days", "dv_m_s", "K_f_deg")}, indent=1))

@@ -1,5 +1,4 @@
 """One chain stage of a §4.1 case: LP, T_min (existence check) or OT, with artifacts."""
-import json
 import sys
 import time
 from pathlib import Path
@@ -17,6 +16,7 @@ def main(sm):
     cfg, case, rule = sm.params.cfg, sm.params.case, sm.rule
     out = Path(sm.output[0])
     t0 = time.perf_counter()
+    artifacts.clear_failures(out)
     try:
         if rule == "multirev_lp":
             tr = multirev.transfer_from_config(cfg, case)
@@ -37,9 +37,7 @@ def main(sm):
                 sol = chain.continue_ot_in_thrust(start, T, label=f"{case}/ot {start.thrust_N:g}->{T:g} N")
             extra = {"continued_from": sm.params.source}
     except ConvergenceError as exc:
-        failure = out.with_name(out.stem + ".failure.json")
-        artifacts.write_json(failure, {"error": str(exc), "diagnosis": exc.diagnosis,
-                                       "provenance": artifacts.provenance(cfg, time.perf_counter() - t0)})
+        artifacts.write_failure(artifacts.failure_path(out), exc, cfg, time.perf_counter() - t0)
         raise
     multirev.save(sol, out, cfg, time.perf_counter() - t0, extra,
                   samples_per_rev=cfg["numerics"]["samples_per_rev"])

@@ -27,11 +27,10 @@ def main(sm):
     # perturbations switched on at the blend's ε₁ rather than at ε_f (case option)
     eps_smooth = tr.eps_blend if cfg["cases"][case].get("perturb_smoothed", False) else None
     t0 = time.perf_counter()
+    artifacts.clear_failures(out)
 
     def fail(exc, suffix):
-        artifacts.write_json(out.with_name(out.stem + suffix), {
-            "error": str(exc), "diagnosis": exc.diagnosis,
-            "provenance": artifacts.provenance(cfg, time.perf_counter() - t0)})
+        artifacts.write_failure(artifacts.failure_path(out, suffix), exc, cfg, time.perf_counter() - t0)
 
     try:
         if sm.params.source == "chain":
