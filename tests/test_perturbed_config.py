@@ -183,3 +183,17 @@ def test_arclength_gives_up_a_path_that_runs_back_below_the_floor():
     with pytest.raises(ConvergenceError, match="turned back") as err:
         arc.run(np.array([1.0]))
     assert -1.5 < err.value.diagnosis["tau"] < -1.0 and arc.stats.steps < 100
+
+
+def test_step_cap_grows_with_the_revolutions_and_reaches_the_shooting_problem():
+    from spaceopt.indirect import chain
+    from spaceopt.indirect.transfer import MAX_STEPS
+    num = PC["numerics"]
+    e5 = P.transfer_from_config(PC, "e5", "unperturbed")
+    assert e5.max_steps == max(num["min_max_steps"], 10_000 * math.ceil(num["max_steps_per_rev"] * e5.n_rev / 10_000))
+    e8 = P.transfer_from_config(PC, "e8", "unperturbed", n_rev=500)
+    assert e8.max_steps == 10_000 * math.ceil(num["max_steps_per_rev"] * 500 / 10_000) > e5.max_steps
+    assert chain.shooting_for("ot", "eps", e5).max_steps == e5.max_steps
+    assert chain.lp_shooting(e5).max_steps == e5.max_steps
+    uncapped = {k: v for k, v in num.items() if k not in ("max_steps_per_rev", "min_max_steps")}
+    assert P.transfer_from_config({**PC, "numerics": uncapped}, "e5", "unperturbed").max_steps == MAX_STEPS

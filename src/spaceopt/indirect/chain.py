@@ -36,24 +36,22 @@ from .shooting import Shooting, initial_state, shoot
 from .transfer import Transfer
 
 ORBIT_COSTATES = (hm.P, hm.EX, hm.EY, hm.IX, hm.IY, hm.LK)
-LP_SHOOTING = Shooting(Model("lp"), ORBIT_COSTATES)     # free-time LP layout
-
-
 def lp_shooting(tr: Transfer, perturbed: bool = False) -> Shooting:
     """LP layout: unperturbed by default; with a fixed time of flight, or with the
     perturbations on (``perturbed``, the transfer's force model), p_t joins the unknowns."""
     if perturbed and not tr.perturbed:
         raise ValueError("a perturbed LP needs a transfer with a perturbation model")
     if tr.tof_s is None and not perturbed:
-        return LP_SHOOTING
-    return Shooting(Model("lp", "lp", perturbed), ORBIT_COSTATES + (hm.TIME,), fixed_time=tr.tof_s is not None)
+        return Shooting(Model("lp"), ORBIT_COSTATES, max_steps=tr.max_steps)     # free-time LP layout
+    return Shooting(Model("lp", "lp", perturbed), ORBIT_COSTATES + (hm.TIME,), fixed_time=tr.tof_s is not None,
+                    max_steps=tr.max_steps)
 
 
 def shooting_for(kind: str, homotopy: str, tr: Transfer) -> Shooting:
     """OT / T_min layout; perturbed or fixed-time problems add p_t to the unknowns."""
     fixed = tr.tof_s is not None
     free = ORBIT_COSTATES + ((hm.TIME,) if (tr.perturbed or fixed) else ()) + (hm.MASS,)
-    return Shooting(Model(kind, homotopy, tr.perturbed), free, fixed_time=fixed)
+    return Shooting(Model(kind, homotopy, tr.perturbed), free, fixed_time=fixed, max_steps=tr.max_steps)
 
 
 def start_vector(sh: Shooting, costates: dict, K_f: float, thrust=None) -> np.ndarray:

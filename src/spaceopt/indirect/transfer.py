@@ -18,6 +18,17 @@ from ..elements import kepler_to_mee
 from ..errors import ConfigError
 
 
+MAX_STEPS = 400_000     # integration steps per propagation unless a study caps them lower
+
+
+def step_cap(n_rev: float, per_rev: float, minimum: int) -> int:
+    """An integration-step cap that grows with the revolutions, rounded up to a multiple of
+    10 000 (few compiled variants). A propagation that reaches it fails, so a degenerate
+    trajectory in a continuation step is rejected after this many steps rather than MAX_STEPS."""
+    raw = max(int(minimum), int(per_rev * n_rev))
+    return int(math.ceil(raw / 10_000) * 10_000)
+
+
 @dataclass(frozen=True)
 class Orbit:
     """Keplerian orbit: a [m], e, i, Ω (raan), ω (argp) [deg]."""
@@ -57,6 +68,7 @@ class Transfer:
     epoch_utc: str | None = None           # departure epoch (UTC), needed when perturbed
     ephemeris: str | None = None           # ephemeris window artifact (JSON) for third bodies
     tof_s: float | None = None             # fixed time of flight (1.1.11); None = free (optimal) time
+    max_steps: int = MAX_STEPS             # integration-step cap of every propagation (step_cap)
 
     def __post_init__(self):
         self.initial.check("initial")

@@ -40,7 +40,7 @@ from ..indirect import hamiltonians as hm
 from ..indirect.chain import Solution
 from ..indirect.continuation import ContinuationOptions
 from ..indirect.shooting import Shooting
-from ..indirect.transfer import Orbit, Transfer
+from ..indirect.transfer import MAX_STEPS, Orbit, Transfer, step_cap
 from . import multirev
 
 DAY = 86400.0
@@ -115,17 +115,20 @@ def transfer_from_config(pc: dict, case: str, model: str, *, ephemeris: str | No
     if mcfg is not None and not isinstance(epoch, str):
         raise ConfigError(f"{path}.epoch_utc", epoch, "expected a UTC date string 'YYYY-MM-DDTHH:MM:SS'")
     needs_eph = bool(mcfg) and bool(mcfg.get("third_bodies"))
+    revs = float(n_rev) if n_rev is not None else _number(cc, "n_rev", path, positive=True)
     return Transfer(
         orbit_from_config(orbits[cc["initial"]], f"perturbed.orbits.{cc['initial']}", radius),
         orbit_from_config(orbits[cc["final"]], f"perturbed.orbits.{cc['final']}", radius),
         L0_deg=_number(cc, "L0_deg", path),
-        n_rev=float(n_rev) if n_rev is not None else _number(cc, "n_rev", path, positive=True),
+        n_rev=revs,
         m0=_number(cc, "m0_kg", path, positive=True), isp=_number(cc, "isp_s", path, positive=True),
         thrust=_number(cc, "thrust_N", path, positive=True), mu=mu,
         eps_final=_number(num, "eps_final", "perturbed.numerics", positive=True),
         eps_blend=_number(num, "eps_blend", "perturbed.numerics", positive=True),
         perturbations=mcfg or None, epoch_utc=epoch if mcfg else None,
-        ephemeris=ephemeris if needs_eph else None)
+        ephemeris=ephemeris if needs_eph else None,
+        max_steps=step_cap(revs, num["max_steps_per_rev"], num["min_max_steps"]) if "max_steps_per_rev" in num
+        else MAX_STEPS)
 
 
 # ---------------------------------------------------------------- solves

@@ -47,7 +47,7 @@ from ..indirect import hamiltonians as hm
 from ..indirect.continuation import ContinuationOptions
 from ..indirect.flow import Model, field as flow_field
 from ..indirect.shooting import Shooting, initial_state, shoot
-from ..indirect.transfer import Transfer
+from ..indirect.transfer import Transfer, step_cap
 from . import multirev
 
 DAY = 86400.0
@@ -64,9 +64,8 @@ def cell_transfer(mr: dict, sw: dict, L0_deg: float, n_rev: float) -> Transfer:
 
 
 def max_steps_for(numerics: dict, n_rev: float) -> int:
-    """Integration-step cap of a cell, rounded up to a multiple of 10 000 (few compiled variants)."""
-    raw = max(int(numerics["min_max_steps"]), int(numerics["max_steps_per_rev"] * n_rev))
-    return int(math.ceil(raw / 10_000) * 10_000)
+    """Integration-step cap of a cell (:func:`~spaceopt.indirect.transfer.step_cap`)."""
+    return step_cap(n_rev, numerics["max_steps_per_rev"], numerics["min_max_steps"])
 
 
 def shooting(numerics: dict, n_rev: float) -> Shooting:
