@@ -1,5 +1,6 @@
 """Perturbed §4.2 studies: config parsing, E6 date order, E9 ΔΩ budget, report logic (no solves)."""
 import copy
+import dataclasses
 import math
 from pathlib import Path
 
@@ -197,3 +198,19 @@ def test_step_cap_grows_with_the_revolutions_and_reaches_the_shooting_problem():
     assert chain.lp_shooting(e5).max_steps == e5.max_steps
     uncapped = {k: v for k, v in num.items() if k not in ("max_steps_per_rev", "min_max_steps")}
     assert P.transfer_from_config({**PC, "numerics": uncapped}, "e5", "unperturbed").max_steps == MAX_STEPS
+
+
+def test_path_rtol_reaches_every_shooting_problem_and_is_checked():
+    from spaceopt.indirect import chain
+    from spaceopt.indirect.transfer import PATH_RTOL
+    e5 = P.transfer_from_config(PC, "e5", "g44_moon_sun", ephemeris="unused.json")
+    assert e5.path_rtol == PC["numerics"]["path_rtol"] != PATH_RTOL
+    assert chain.shooting_for("ot", "eps", e5).path_rtol == e5.path_rtol
+    assert chain.lp_shooting(e5, perturbed=True).path_rtol == e5.path_rtol
+    assert P.perturbation_switch(e5).path_rtol == e5.path_rtol
+    default = {k: v for k, v in PC["numerics"].items() if k != "path_rtol"}
+    assert P.transfer_from_config({**PC, "numerics": default}, "e5", "unperturbed").path_rtol == PATH_RTOL
+    with pytest.raises(ConfigError, match="perturbed.numerics.path_rtol"):
+        P.transfer_from_config({**PC, "numerics": {**default, "path_rtol": -1e-10}}, "e5", "unperturbed")
+    with pytest.raises(ConfigError, match="path_rtol"):
+        dataclasses.replace(e5, path_rtol=0.1)

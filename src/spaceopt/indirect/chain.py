@@ -42,16 +42,16 @@ def lp_shooting(tr: Transfer, perturbed: bool = False) -> Shooting:
     if perturbed and not tr.perturbed:
         raise ValueError("a perturbed LP needs a transfer with a perturbation model")
     if tr.tof_s is None and not perturbed:
-        return Shooting(Model("lp"), ORBIT_COSTATES, max_steps=tr.max_steps)     # free-time LP layout
+        return Shooting(Model("lp"), ORBIT_COSTATES, **tr.integration())     # free-time LP layout
     return Shooting(Model("lp", "lp", perturbed), ORBIT_COSTATES + (hm.TIME,), fixed_time=tr.tof_s is not None,
-                    max_steps=tr.max_steps)
+                    **tr.integration())
 
 
 def shooting_for(kind: str, homotopy: str, tr: Transfer) -> Shooting:
     """OT / T_min layout; perturbed or fixed-time problems add p_t to the unknowns."""
     fixed = tr.tof_s is not None
     free = ORBIT_COSTATES + ((hm.TIME,) if (tr.perturbed or fixed) else ()) + (hm.MASS,)
-    return Shooting(Model(kind, homotopy, tr.perturbed), free, fixed_time=fixed, max_steps=tr.max_steps)
+    return Shooting(Model(kind, homotopy, tr.perturbed), free, fixed_time=fixed, **tr.integration())
 
 
 def start_vector(sh: Shooting, costates: dict, K_f: float, thrust=None) -> np.ndarray:
@@ -85,9 +85,6 @@ class Solution:
         return {n: 2.0 * v for n, v in self.costates().items()}
 
 
-PATH_RTOL = 1e-9     # integration tolerance while following the path; the end point uses sh.rtol
-
-
 PATHS = {"tau": Continuation, "arclength": ArclengthContinuation}
 
 
@@ -108,7 +105,7 @@ def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None, path
         opt = options if isinstance(options, ArclengthOptions) else ArclengthOptions()
         opt = ArclengthOptions(**{**opt.__dict__, "label": label,
                                   **({"verbose": options.verbose} if options is not None else {})})
-    rtol, atol = max(sh.rtol, PATH_RTOL), max(sh.atol, PATH_RTOL * 0.1)
+    rtol, atol = max(sh.rtol, sh.path_rtol), max(sh.atol, sh.path_rtol * 0.1)
     cont = cls(lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm, rtol, atol), opt,
                polish=lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm))
     t0 = time.perf_counter()

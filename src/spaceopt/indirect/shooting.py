@@ -31,7 +31,7 @@ import jax.numpy as jnp
 
 from . import hamiltonians as hm
 from .flow import Model, field, hamiltonian, params_at, propagate_with_sensitivities
-from .transfer import MAX_STEPS
+from .transfer import MAX_STEPS, PATH_RTOL
 
 COSTATE_NAMES = ("p_p", "p_ex", "p_ey", "p_ix", "p_iy", "p_LK", "p_t", "p_m")
 
@@ -44,6 +44,7 @@ class Shooting:
     rtol: float = dc_field(default=1e-11, compare=False)   # end-point tolerances; passed to
     atol: float = dc_field(default=1e-12, compare=False)   # shoot() as traced values (no recompile)
     max_steps: int = MAX_STEPS
+    path_rtol: float = dc_field(default=PATH_RTOL, compare=False)   # rtol while a path is followed
     fixed_time: bool = False      # t(K_f) = t_f (1.1.11) replaces p_t(K_f) = 0; p_t is then an unknown
 
     @property

@@ -19,6 +19,7 @@ from ..errors import ConfigError
 
 
 MAX_STEPS = 400_000     # integration steps per propagation unless a study caps them lower
+PATH_RTOL = 1e-9        # integration rtol while a homotopy path is followed (end points: Shooting.rtol)
 
 
 def step_cap(n_rev: float, per_rev: float, minimum: int) -> int:
@@ -69,6 +70,11 @@ class Transfer:
     ephemeris: str | None = None           # ephemeris window artifact (JSON) for third bodies
     tof_s: float | None = None             # fixed time of flight (1.1.11); None = free (optimal) time
     max_steps: int = MAX_STEPS             # integration-step cap of every propagation (step_cap)
+    path_rtol: float = PATH_RTOL           # integration rtol along homotopy paths (Shooting.path_rtol)
+
+    def integration(self) -> dict:
+        """The integration settings every Shooting of this transfer takes (step cap, path rtol)."""
+        return {"max_steps": self.max_steps, "path_rtol": self.path_rtol}
 
     def __post_init__(self):
         self.initial.check("initial")
@@ -76,6 +82,8 @@ class Transfer:
         for key, val in (("m0", self.m0), ("isp", self.isp), ("n_rev", self.n_rev), ("mu", self.mu)):
             if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
                 raise ConfigError(key, val, "must be a positive number")
+        if not (isinstance(self.path_rtol, (int, float)) and 0 < self.path_rtol < 1e-3):
+            raise ConfigError("path_rtol", self.path_rtol, "must be a relative tolerance in (0, 1e-3)")
         if not math.isnan(self.thrust) and not (math.isfinite(self.thrust) and self.thrust > 0):
             raise ConfigError("thrust", self.thrust, "must be a positive force in newtons")
         if not (0 < self.eps_final < 1):

@@ -156,7 +156,7 @@ def load(json_path) -> Solution:
                   **{k: v for k, v in t.items() if k not in ("initial", "final")})
     m = data["model"]
     sh = Shooting(Model(m["kind"], m["homotopy"], m.get("perturbed", False)), tuple(m["free_costates"]),
-                  fixed_time=m.get("fixed_time", False), max_steps=tr.max_steps)
+                  fixed_time=m.get("fixed_time", False), **tr.integration())
     thrust = data["thrust_N"]
     prm = tr.params(thrust=None if thrust is None or (isinstance(thrust, float) and math.isnan(thrust)) else thrust)
     sol = Solution(data["scalars"]["stage"], sh, np.asarray(data["z"]), prm, tr, data["solver"],

@@ -40,7 +40,7 @@ from ..indirect import hamiltonians as hm
 from ..indirect.chain import Solution
 from ..indirect.continuation import ContinuationOptions
 from ..indirect.shooting import Shooting
-from ..indirect.transfer import MAX_STEPS, Orbit, Transfer, step_cap
+from ..indirect.transfer import MAX_STEPS, PATH_RTOL, Orbit, Transfer, step_cap
 from . import multirev
 
 DAY = 86400.0
@@ -128,7 +128,8 @@ def transfer_from_config(pc: dict, case: str, model: str, *, ephemeris: str | No
         perturbations=mcfg or None, epoch_utc=epoch if mcfg else None,
         ephemeris=ephemeris if needs_eph else None,
         max_steps=step_cap(revs, num["max_steps_per_rev"], num["min_max_steps"]) if "max_steps_per_rev" in num
-        else MAX_STEPS)
+        else MAX_STEPS,
+        path_rtol=_number(num, "path_rtol", "perturbed.numerics", positive=True) if "path_rtol" in num else PATH_RTOL)
 
 
 # ---------------------------------------------------------------- solves
