@@ -214,3 +214,15 @@ def test_path_rtol_reaches_every_shooting_problem_and_is_checked():
         P.transfer_from_config({**PC, "numerics": {**default, "path_rtol": -1e-10}}, "e5", "unperturbed")
     with pytest.raises(ConfigError, match="path_rtol"):
         dataclasses.replace(e5, path_rtol=0.1)
+
+
+def test_perturb_at_eps_is_read_and_checked():
+    assert P.perturb_at_eps(PC, "e7") == PC["cases"]["e7"]["perturb_at_eps"]
+    assert P.perturb_at_eps(PC, "e5") is None
+    bad = copy.deepcopy(PC)
+    bad["cases"]["e7"]["perturb_at_eps"] = PC["numerics"]["eps_final"] / 2
+    with pytest.raises(ConfigError, match=r"perturbed\.cases\.e7\.perturb_at_eps"):
+        P.perturb_at_eps(bad, "e7")
+    bad["cases"]["e7"]["perturb_at_eps"] = "big"
+    with pytest.raises(ConfigError, match=r"perturbed\.cases\.e7\.perturb_at_eps"):
+        P.perturb_at_eps(bad, "e7")

@@ -24,8 +24,8 @@ def main(sm):
     tr = P.transfer_from_config(cfg, case, model, **kw)
     label = f"{case}/{model}" + (f"/{kw['epoch_utc'][:10]}" if "epoch_utc" in kw else "") + \
         (f"/n{kw['n_rev']:g}" if "n_rev" in kw else "")
-    # perturbations switched on at the blend's ε₁ rather than at ε_f (case option)
-    eps_smooth = tr.eps_blend if cfg["cases"][case].get("perturb_smoothed", False) else None
+    # perturbations switched on at a larger smoothing ε than ε_f (case option perturb_at_eps)
+    eps_smooth = P.perturb_at_eps(cfg, case)
     t0 = time.perf_counter()
     artifacts.clear_failures(out)
 

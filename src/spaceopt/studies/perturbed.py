@@ -50,7 +50,7 @@ ANGLE_KEYS = ("i_deg", "raan_deg", "argp_deg")
 CASE_KEYS = ("initial", "final", "L0_deg", "n_rev", "m0_kg", "isp_s", "thrust_N", "epoch_utc",
              "ephemeris", "models")
 OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref", "route", "model_start", "fallback",
-                      "perturb_smoothed")
+                      "perturb_at_eps")
 
 
 def _number(cfg, key, path, positive=False):
@@ -204,6 +204,18 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
     return out
 
 
+def perturb_at_eps(pc: dict, case: str) -> float | None:
+    """Case option ``perturb_at_eps``: the smoothing ε at which the perturbations are switched on
+    (:func:`perturb_from_unperturbed`), between ε_f and 1; None (absent) switches them on at ε_f."""
+    eps = pc["cases"][case].get("perturb_at_eps")
+    if eps is None:
+        return None
+    val = _number(pc["cases"][case], "perturb_at_eps", f"perturbed.cases.{case}", positive=True)
+    if not pc["numerics"]["eps_final"] < val <= 1.0:
+        raise ConfigError(f"perturbed.cases.{case}.perturb_at_eps", eps, "must lie in (eps_final, 1]")
+    return val
+
+
 def perturbation_switch(tr: Transfer) -> Shooting:
     """The shooting problem that switches the perturbations of ``tr`` on by τ: OT at ε_f plus
     τ H_p (flow.Model('ot', 'pert'), the perturbation switch of (3.3.1) on its own)."""
@@ -220,8 +232,9 @@ def perturb_from_unperturbed(sol: Solution, tr_to: Transfer, label: str, path: s
     in arclength (default: E5's strength path has an S-shaped pair of folds, τ ≈ 0.318 and
     0.221; the Newton homotopy f_p(z, τ) = (1 − τ) f_p(z₀) at the perturbed problem folds at
     τ ≈ 0.957 and runs back to τ < 0). ``eps_smooth``: switch them on at that ε instead of ε_f
-    (:func:`chain.through_smoothing`; case option ``perturb_smoothed``), for transfers with
-    many burn arcs, where the switch at ε_f stalls (E7: τ = 0.3728 after 42 Jacobians).
+    (:func:`chain.through_smoothing`; case option ``perturb_at_eps``), for transfers with
+    many burn arcs, where the switch at ε_f stalls (E7: τ = 0.3728 after 42 Jacobians; at
+    ε = 10⁻² its path meets a near branch point at τ ≈ 0.611, at 3·10⁻² it runs clean).
     ``options``: continuation options of every stage (default: the path's own).
     """
     sh_p = chain.shooting_for("ot", "eps", tr_to)
