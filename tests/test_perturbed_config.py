@@ -204,14 +204,16 @@ def test_path_rtol_reaches_every_shooting_problem_and_is_checked():
     from spaceopt.indirect import chain
     from spaceopt.indirect.transfer import PATH_RTOL
     e5 = P.transfer_from_config(PC, "e5", "g44_moon_sun", ephemeris="unused.json")
-    assert e5.path_rtol == PC["numerics"]["path_rtol"] != PATH_RTOL
+    assert e5.path_rtol == PC["cases"]["e5"]["path_rtol"] != PATH_RTOL
     assert chain.shooting_for("ot", "eps", e5).path_rtol == e5.path_rtol
     assert chain.lp_shooting(e5, perturbed=True).path_rtol == e5.path_rtol
     assert P.perturbation_switch(e5).path_rtol == e5.path_rtol
-    default = {k: v for k, v in PC["numerics"].items() if k != "path_rtol"}
-    assert P.transfer_from_config({**PC, "numerics": default}, "e5", "unperturbed").path_rtol == PATH_RTOL
-    with pytest.raises(ConfigError, match="perturbed.numerics.path_rtol"):
-        P.transfer_from_config({**PC, "numerics": {**default, "path_rtol": -1e-10}}, "e5", "unperturbed")
+    assert "path_rtol" not in PC["cases"]["e9"]
+    assert P.transfer_from_config(PC, "e9", "unperturbed").path_rtol == PATH_RTOL
+    bad = copy.deepcopy(PC)
+    bad["cases"]["e5"]["path_rtol"] = -1e-10
+    with pytest.raises(ConfigError, match=r"perturbed\.cases\.e5\.path_rtol"):
+        P.transfer_from_config(bad, "e5", "unperturbed")
     with pytest.raises(ConfigError, match="path_rtol"):
         dataclasses.replace(e5, path_rtol=0.1)
 

@@ -50,7 +50,7 @@ ANGLE_KEYS = ("i_deg", "raan_deg", "argp_deg")
 CASE_KEYS = ("initial", "final", "L0_deg", "n_rev", "m0_kg", "isp_s", "thrust_N", "epoch_utc",
              "ephemeris", "models")
 OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref", "route", "model_start", "fallback",
-                      "perturb_at_eps")
+                      "perturb_at_eps", "path_rtol")
 
 
 def _number(cfg, key, path, positive=False):
@@ -129,7 +129,7 @@ def transfer_from_config(pc: dict, case: str, model: str, *, ephemeris: str | No
         ephemeris=ephemeris if needs_eph else None,
         max_steps=step_cap(revs, num["max_steps_per_rev"], num["min_max_steps"]) if "max_steps_per_rev" in num
         else MAX_STEPS,
-        path_rtol=_number(num, "path_rtol", "perturbed.numerics", positive=True) if "path_rtol" in num else PATH_RTOL)
+        path_rtol=_number(cc, "path_rtol", path, positive=True) if "path_rtol" in cc else PATH_RTOL)
 
 
 # ---------------------------------------------------------------- solves
