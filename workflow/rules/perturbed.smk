@@ -86,6 +86,7 @@ rule perturbed_solve:
 # ---------------------------------------------------------------- E6 departure scan
 
 E6 = PT["e6"]
+E6_START_FROM = scan_start_from(E6)     # checked once by check_section above
 
 
 def pt_e6_dates():
@@ -99,9 +100,8 @@ def pt_e6_source(date):
     an independent job; neighbour — the neighbouring date towards the E5 anchor (None: the E5
     solve itself). A date of ``start_from`` starts from the converged date named there."""
     from spaceopt.studies.perturbed import scan_dates, scan_order
-    start_from = scan_start_from(E6)
-    if date in start_from:
-        return start_from[date]
+    if date in E6_START_FROM:
+        return E6_START_FROM[date]
     if E6.get("warm_start", "unperturbed") == "unperturbed":
         return "unperturbed"
     anchor = PT["cases"][E6["case"]]["epoch_utc"]

@@ -36,6 +36,8 @@ from .shooting import Shooting, initial_state, shoot
 from .transfer import Transfer
 
 ORBIT_COSTATES = (hm.P, hm.EX, hm.EY, hm.IX, hm.IY, hm.LK)
+
+
 def lp_shooting(tr: Transfer, perturbed: bool = False) -> Shooting:
     """LP layout: unperturbed by default; with a fixed time of flight, or with the
     perturbations on (``perturbed``, the transfer's force model), p_t joins the unknowns."""
