@@ -228,3 +228,30 @@ def test_perturb_at_eps_is_read_and_checked():
     bad["cases"]["e7"]["perturb_at_eps"] = "big"
     with pytest.raises(ConfigError, match=r"perturbed\.cases\.e7\.perturb_at_eps"):
         P.perturb_at_eps(bad, "e7")
+
+
+def test_force_model_step_goes_through_the_smoothing_eps(monkeypatch):
+    """warm_start J2 → 4×4 with eps_smooth: the model step is done at that ε, in arclength
+    (E7's route); without it, at ε_f by the plain parameter continuation (E9's)."""
+    import numpy as np
+
+    from spaceopt.indirect import chain
+    j2, g44 = (P.transfer_from_config(PC, "e9", m) for m in ("j2", "g44"))
+    sh = chain.shooting_for("ot", "eps", j2)
+    sol = chain.Solution("ot", sh, np.zeros(len(sh.unknown_names())), j2.params(thrust=1.0), j2, {}, thrust_N=1.0)
+    calls = []
+
+    def record(name):
+        def move(s, prm_to, eps_smooth=None, options=None, label="", path="tau"):
+            calls.append((name, eps_smooth, path, prm_to["pert"] is not None))
+            return dataclasses.replace(s, stats={})
+        return move
+
+    monkeypatch.setattr(chain, "continue_in_params_smoothed", record("smoothed"))
+    monkeypatch.setattr(chain, "continue_in_params", record("plain"))
+    out = P.warm_start(sol, g44, "test", eps_smooth=1e-2)
+    assert calls == [("smoothed", 1e-2, "arclength", True)]
+    assert out.transfer is g44 and out.stats["warm_path"] == "arclength at eps = 0.01"
+    calls.clear()
+    P.warm_start(sol, g44, "test")
+    assert calls == [("plain", None, "tau", True)]

@@ -1,7 +1,7 @@
 # Dissertation §4.2: perturbed multi-revolution transfers E5-E9 (spec 02-multirev §4-§6).
 #   results/perturbed/<case>/<model>.{json,npz,rrd}     E5, E7, E9 chain solves
 #   results/perturbed/e6/<date>.{json,npz,rrd}          E6 departure scan (each date from the unperturbed OT)
-#   results/perturbed/e8/<model>_n<n>.{json,npz,rrd}    E8 (warm start n to n)
+#   results/perturbed/e8/<model>_n<n>.{json,npz,rrd}    E8 (n to n; perturbed from unperturbed at n)
 #   results/perturbed/e9_budget.json                    ΔΩ budget check (spec §6)
 #   results/perturbed/{e5,e6_date_scan,e7,e8,e9}.csv, reproduction.csv, paper_section.tex, figures/
 from spaceopt.studies.perturbed import scan_start_from
@@ -134,20 +134,26 @@ rule perturbed_e6_date:
 E8 = PT["e8"]
 
 
-def pt_e8_source(n):
-    """Each n continues from the next smaller n of the list; the smallest comes from the chain."""
+def pt_e8_source(n, model):
+    """What E8 solve (model, n) starts from. The first model of the case: the next smaller n of
+    the list (n to n), the smallest n the chain. Every later model: the previous model at the
+    same n (perturbations switched on by τ; pt_warm_source), so the perturbed counts are
+    independent jobs."""
+    prev = pt_warm_source("e8", model)
+    if prev is not None:
+        return f"{prev}_n{_pt_fmt(n)}"
     ns = sorted(float(x) for x in E8["n_rev"])
     n = float(n)
     if n not in ns or ns.index(n) == 0:
         return None
-    return _pt_fmt(ns[ns.index(n) - 1])
+    return f"{model}_n{_pt_fmt(ns[ns.index(n) - 1])}"
 
 
 def pt_e8_inputs(w):
-    src = pt_e8_source(w.n)
+    src = pt_e8_source(w.n, w.model)
     out = {"src": PT_SRC, "eph": pt_ephemeris("e8", w.model)}
     if src is not None:
-        out["start"] = f"{PTDIR}/e8/{w.model}_n{src}.json"
+        out["start"] = f"{PTDIR}/e8/{src}.json"
     return out
 
 
@@ -156,7 +162,7 @@ rule perturbed_e8:
     output: pt_files("e8/{model}_n{n}")
     wildcard_constraints: n=r"[0-9.]+"
     params: cfg=lambda w: pt_config_for("e8", w.model), case="e8", model="{model}",
-            n_rev=lambda w: float(w.n), source=lambda w: pt_e8_source(w.n) or "chain", results=RESULTS
+            n_rev=lambda w: float(w.n), source=lambda w: pt_e8_source(w.n, w.model) or "chain", results=RESULTS
     log: f"{PTDIR}/logs/e8_{{model}}_n{{n}}.log"
     benchmark: f"{PTDIR}/benchmarks/e8_{{model}}_n{{n}}.tsv"
     resources: mem_mb=4000, runtime=600

@@ -176,7 +176,10 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
     homotopy f(z, τ) = (1 − τ) b absorbs the initial residual b; followed in τ, and in arclength where
     the τ-path stalls (a turning point). A change of n_rev moves L_f at ε₁ through
     :func:`chain.continue_in_params_smoothed`. Unperturbed → perturbed:
-    :func:`perturb_from_unperturbed`. The path used is in ``stats['warm_path']``.
+    :func:`perturb_from_unperturbed`. ``eps_smooth`` (case option ``perturb_at_eps``): the
+    perturbations are switched on, or the force model is changed, at that ε instead of ε_f
+    (E7: unperturbed → J2 → 4×4 + Moon + Sun at ε = 10⁻²). The path used is in
+    ``stats['warm_path']``.
     """
     if sol.transfer.perturbed and not tr_to.perturbed:
         raise ConfigError("warm_start", tr_to.perturbations, "cannot warm-start an unperturbed problem from a perturbed one")
@@ -194,12 +197,26 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
     if sol.transfer.n_rev != tr_to.n_rev:
         # more revolutions add burn arcs: move L_f at the smoothing ε₁ of the blend (E8)
         move = functools.partial(chain.continue_in_params_smoothed, eps_smooth=tr_to.eps_blend)
+    elif eps_smooth is not None and sol.transfer.perturbations != tr_to.perturbations:
+        # new force model at the smoothing ε of perturb_at_eps, followed in arclength (E7: J2 →
+        # 4×4 + Moon + Sun; at ε_f its path stalls at τ 0.08)
+        return _force_model_step_smoothed(sol, tr_to, prm_to, eps_smooth, label)
     try:
         out = move(sol, prm_to, options=options, label=label)
         out.stats["warm_path"] = "tau"
     except ConvergenceError as exc:
         out = move(sol, prm_to, options=None, label=label + " (arclength)", path="arclength")
         out.stats.update(warm_path="arclength", tau_path_failure=str(exc))
+    out.transfer, out.thrust_N = tr_to, sol.thrust_N
+    return out
+
+
+def _force_model_step_smoothed(sol: Solution, tr_to: Transfer, prm_to: dict, eps_smooth: float,
+                               label: str) -> Solution:
+    """Perturbed → perturbed with another force model through ε = ``eps_smooth``
+    (:func:`chain.continue_in_params_smoothed`, the model step in arclength)."""
+    out = chain.continue_in_params_smoothed(sol, prm_to, eps_smooth=eps_smooth, label=label, path="arclength")
+    out.stats["warm_path"] = f"arclength at eps = {eps_smooth:g}"
     out.transfer, out.thrust_N = tr_to, sol.thrust_N
     return out
 
