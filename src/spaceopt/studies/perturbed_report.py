@@ -47,7 +47,7 @@ FIGURE_CAPTIONS = {
     "fig_4_2_1_3": "E5: switching function, pitch and yaw against time",
     "fig_4_2_1_4": "E6: final mass and transfer time against the departure date",
     "fig_4_2_1_5": "E6: initial costates against the departure date",
-    "fig_4_2_1_6": "E7: GTO to Molniya, unperturbed (top) and perturbed (bottom): projections on the J2000 planes and 3-D view (thick: burns)",
+    "fig_4_2_1_6": "E7: GTO to Molniya, one row per force model of the case (unperturbed, J2, 4x4 + Moon + Sun, top to bottom): projections on the J2000 planes and 3-D view (thick: burns)",
     "fig_4_2_2_1": "E8: GTO to GEO case B trajectory projections",
     "fig_4_2_2_3": "E8: pitch, yaw and switching function against time",
     "fig_4_2_2_5": "E8: propellant against the number of revolutions and the transfer time",
