@@ -220,6 +220,8 @@ def test_path_rtol_reaches_every_shooting_problem_and_is_checked():
 
 def test_perturb_at_eps_is_read_and_checked():
     assert P.perturb_at_eps(PC, "e7") == PC["cases"]["e7"]["perturb_at_eps"]
+    assert P.perturb_at_eps(PC, "e7", "model_step_at_eps") == PC["cases"]["e7"]["model_step_at_eps"]
+    assert P.perturb_at_eps(PC, "e9", "model_step_at_eps") is None
     assert P.perturb_at_eps(PC, "e5") is None
     bad = copy.deepcopy(PC)
     bad["cases"]["e7"]["perturb_at_eps"] = PC["numerics"]["eps_final"] / 2
@@ -228,11 +230,14 @@ def test_perturb_at_eps_is_read_and_checked():
     bad["cases"]["e7"]["perturb_at_eps"] = "big"
     with pytest.raises(ConfigError, match=r"perturbed\.cases\.e7\.perturb_at_eps"):
         P.perturb_at_eps(bad, "e7")
+    bad["cases"]["e7"]["model_step_at_eps"] = 2.0
+    with pytest.raises(ConfigError, match=r"perturbed\.cases\.e7\.model_step_at_eps"):
+        P.perturb_at_eps(bad, "e7", "model_step_at_eps")
 
 
 def test_force_model_step_goes_through_the_smoothing_eps(monkeypatch):
-    """warm_start J2 → 4×4 with eps_smooth: the model step is done at that ε, in arclength
-    (E7's route); without it, at ε_f by the plain parameter continuation (E9's)."""
+    """warm_start J2 → 4×4 with model_step_eps: the model step is done at that ε, in arclength
+    (E7's route); without it, at ε_f by the plain parameter continuation (E8's, E9's)."""
     import numpy as np
 
     from spaceopt.indirect import chain
@@ -249,9 +254,9 @@ def test_force_model_step_goes_through_the_smoothing_eps(monkeypatch):
 
     monkeypatch.setattr(chain, "continue_in_params_smoothed", record("smoothed"))
     monkeypatch.setattr(chain, "continue_in_params", record("plain"))
-    out = P.warm_start(sol, g44, "test", eps_smooth=1e-2)
+    out = P.warm_start(sol, g44, "test", eps_smooth=1e-3, model_step_eps=1e-2)
     assert calls == [("smoothed", 1e-2, "arclength", True)]
     assert out.transfer is g44 and out.stats["warm_path"] == "arclength at eps = 0.01"
     calls.clear()
-    P.warm_start(sol, g44, "test")
+    P.warm_start(sol, g44, "test", eps_smooth=1e-2)          # perturb_at_eps alone: at ε_f
     assert calls == [("plain", None, "tau", True)]

@@ -24,8 +24,10 @@ def main(sm):
     tr = P.transfer_from_config(cfg, case, model, **kw)
     label = f"{case}/{model}" + (f"/{kw['epoch_utc'][:10]}" if "epoch_utc" in kw else "") + \
         (f"/n{kw['n_rev']:g}" if "n_rev" in kw else "")
-    # perturbations switched on at a larger smoothing ε than ε_f (case option perturb_at_eps)
-    eps_smooth = P.perturb_at_eps(cfg, case)
+    # perturbations switched on / the force model changed at a larger smoothing ε than ε_f
+    # (case options perturb_at_eps, model_step_at_eps)
+    eps_kw = {"eps_smooth": P.perturb_at_eps(cfg, case),
+              "model_step_eps": P.perturb_at_eps(cfg, case, "model_step_at_eps")}
     t0 = time.perf_counter()
     artifacts.clear_failures(out)
 
@@ -50,12 +52,12 @@ def main(sm):
                 fail(exc, ".chain_failure.json")
                 print(f"[{label}] chain from the zero guess failed ({exc}); warm start from "
                       f"{sm.input.start}", file=sys.stderr, flush=True)
-                sol = P.warm_start(P.load(sm.input.start), tr, label + "/warm", eps_smooth=eps_smooth)
+                sol = P.warm_start(P.load(sm.input.start), tr, label + "/warm", **eps_kw)
                 extra = {"continued_from": str(sm.input.start), "route": route,
                          "chain_failure": {"error": str(exc), "diagnosis": exc.diagnosis}}
         else:
             start = P.load(sm.input.start)
-            sol = P.warm_start(start, tr, label, eps_smooth=eps_smooth)
+            sol = P.warm_start(start, tr, label, **eps_kw)
             extra = {"continued_from": str(sm.input.start)}
     except ConvergenceError as exc:
         fail(exc, ".failure.json")

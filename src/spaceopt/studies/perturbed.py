@@ -50,7 +50,7 @@ ANGLE_KEYS = ("i_deg", "raan_deg", "argp_deg")
 CASE_KEYS = ("initial", "final", "L0_deg", "n_rev", "m0_kg", "isp_s", "thrust_N", "epoch_utc",
              "ephemeris", "models")
 OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref", "route", "model_start", "fallback",
-                      "perturb_at_eps", "path_rtol")
+                      "perturb_at_eps", "model_step_at_eps", "path_rtol")
 
 
 def _number(cfg, key, path, positive=False):
@@ -168,7 +168,8 @@ def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False, path: str = 
     return lp, ot
 
 
-def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smooth: float | None = None) -> Solution:
+def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smooth: float | None = None,
+               model_step_eps: float | None = None) -> Solution:
     """From a converged OT solution to the problem of ``tr_to`` (new date, model or n_rev).
 
     Perturbed → perturbed: thrust, L₀, L_f, c and a new departure epoch move linearly in τ;
@@ -177,9 +178,10 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
     the τ-path stalls (a turning point). A change of n_rev moves L_f at ε₁ through
     :func:`chain.continue_in_params_smoothed`. Unperturbed → perturbed:
     :func:`perturb_from_unperturbed`. ``eps_smooth`` (case option ``perturb_at_eps``): the
-    perturbations are switched on, or the force model is changed, at that ε instead of ε_f
-    (E7: unperturbed → J2 → 4×4 + Moon + Sun at ε = 10⁻²). The path used is in
-    ``stats['warm_path']``.
+    perturbations are switched on at that ε instead of ε_f; ``model_step_eps`` (case option
+    ``model_step_at_eps``): a perturbed force model is changed at that ε, in arclength
+    (E7: unperturbed → J2 → 4×4 + Moon + Sun, both at ε = 10⁻²; E8: J2 on at 10⁻², the model
+    step at ε_f). The path used is in ``stats['warm_path']``.
     """
     if sol.transfer.perturbed and not tr_to.perturbed:
         raise ConfigError("warm_start", tr_to.perturbations, "cannot warm-start an unperturbed problem from a perturbed one")
@@ -197,10 +199,10 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
     if sol.transfer.n_rev != tr_to.n_rev:
         # more revolutions add burn arcs: move L_f at the smoothing ε₁ of the blend (E8)
         move = functools.partial(chain.continue_in_params_smoothed, eps_smooth=tr_to.eps_blend)
-    elif eps_smooth is not None and sol.transfer.perturbations != tr_to.perturbations:
-        # new force model at the smoothing ε of perturb_at_eps, followed in arclength (E7: J2 →
-        # 4×4 + Moon + Sun; at ε_f its path stalls at τ 0.08)
-        return _force_model_step_smoothed(sol, tr_to, prm_to, eps_smooth, label)
+    elif model_step_eps is not None and sol.transfer.perturbations != tr_to.perturbations:
+        # new force model at a larger smoothing ε, followed in arclength (E7: J2 → 4×4 + Moon +
+        # Sun; at ε_f its path stalls at τ 0.08)
+        return _force_model_step_smoothed(sol, tr_to, prm_to, model_step_eps, label)
     try:
         out = move(sol, prm_to, options=options, label=label)
         out.stats["warm_path"] = "tau"
@@ -221,15 +223,16 @@ def _force_model_step_smoothed(sol: Solution, tr_to: Transfer, prm_to: dict, eps
     return out
 
 
-def perturb_at_eps(pc: dict, case: str) -> float | None:
-    """Case option ``perturb_at_eps``: the smoothing ε at which the perturbations are switched on
-    (:func:`perturb_from_unperturbed`), between ε_f and 1; None (absent) switches them on at ε_f."""
-    eps = pc["cases"][case].get("perturb_at_eps")
+def perturb_at_eps(pc: dict, case: str, key: str = "perturb_at_eps") -> float | None:
+    """Case option ``perturb_at_eps`` (or ``model_step_at_eps``): the smoothing ε at which the
+    perturbations are switched on (:func:`perturb_from_unperturbed`), or a perturbed force
+    model is changed (:func:`warm_start`), between ε_f and 1; None (absent) does it at ε_f."""
+    eps = pc["cases"][case].get(key)
     if eps is None:
         return None
-    val = _number(pc["cases"][case], "perturb_at_eps", f"perturbed.cases.{case}", positive=True)
+    val = _number(pc["cases"][case], key, f"perturbed.cases.{case}", positive=True)
     if not pc["numerics"]["eps_final"] < val <= 1.0:
-        raise ConfigError(f"perturbed.cases.{case}.perturb_at_eps", eps, "must lie in (eps_final, 1]")
+        raise ConfigError(f"perturbed.cases.{case}.{key}", eps, "must lie in (eps_final, 1]")
     return val
 
 
