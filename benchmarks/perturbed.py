@@ -4,7 +4,7 @@ Three parts, all written to ``results/benchmarks/perturbed.json`` (parts not rer
 
 1. ``measured``: wall times read from the solve artifacts that exist (provenance wall_time_s of
    results/perturbed/**/<stage>.json): each E5/E7/E9 chain, every E6 date and the scan total,
-   every E8 n.
+   every E8 solve, and the DAG's whole route to each perturbed E8 solve (``e8_route_s``).
 2. ``propagation``: the cost of one shooting evaluation (trajectory + sensitivity columns) of the
    E8 problem, unperturbed and perturbed (4×4 + Moon + Sun), over ``--revs`` revolutions at a
    fixed guess, after compilation, per revolution. With ``--baseline REV`` the same measurement
@@ -76,7 +76,32 @@ def measured(results: Path) -> dict:
     if out["e6"]:
         out["e6_scan_total_s"] = sum(r["wall_time_s"] or 0.0 for r in out["e6"].values())
         out["e6_dates"] = len(out["e6"])
+    out["e8_route_s"] = e8_route_times(out["e8"])
     return out
+
+
+def e8_route_times(e8: dict) -> dict:
+    """Wall time of the DAG's route to each perturbed E8 solve, from the artifacts: the
+    unperturbed counts up to n (each continues from the previous one), then every later model at
+    n (each from the previous model at n). Only routes whose solves all exist."""
+    pc = _perturbed_config()
+    models = pc["cases"]["e8"]["models"]
+    ns = sorted(float(n) for n in pc["e8"]["n_rev"])
+    out = {}
+    for n in ns:
+        keys = [f"{models[0]}_n{m:g}" for m in ns if m <= n]
+        for model in models[1:]:
+            keys.append(f"{model}_n{n:g}")
+            if all(k in e8 and e8[k]["wall_time_s"] for k in keys):
+                out[f"{model}_n{n:g}"] = {"wall_time_s": sum(e8[k]["wall_time_s"] for k in keys),
+                                          "jacobian_evaluations": sum(e8[k]["jacobian_evaluations"] or 0 for k in keys),
+                                          "solves": list(keys)}
+    return out
+
+
+def _perturbed_config() -> dict:
+    import yaml
+    return yaml.safe_load((ROOT / "config/studies/perturbed.yaml").read_text())["perturbed"]
 
 
 # ------------------------------------------------------------------ propagation (worker side)
@@ -88,12 +113,11 @@ def _worker(revs: float) -> None:
     import jax
     import jax.numpy as jnp
     import numpy as np
-    import yaml
     from spaceopt.indirect import chain
     from spaceopt.indirect.shooting import shoot
     from spaceopt.studies import perturbed as P
 
-    pc = yaml.safe_load((ROOT / "config/studies/perturbed.yaml").read_text())["perturbed"]
+    pc = _perturbed_config()
     eph = P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"])
     cases = {}
     for model in MODELS:
@@ -226,11 +250,10 @@ def _kernel_count(compiled) -> int:
 def field_profile(rounds: int) -> dict:
     import jax
     import jax.numpy as jnp
-    import yaml
     from spaceopt.indirect import chain, flow
     from spaceopt.studies import perturbed as P
 
-    pc = yaml.safe_load((ROOT / "config/studies/perturbed.yaml").read_text())["perturbed"]
+    pc = _perturbed_config()
     eph = P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"])
     built = {}
     pc["models"].setdefault("moon_sun", {"third_bodies": ["moon", "sun"], "earth_angle": "era"})
@@ -273,12 +296,11 @@ def e8_chain(n_rev: float, model: str, start=None) -> tuple[dict, object]:
     from a converged solution ``start`` (``studies.perturbed.warm_start``; unperturbed → perturbed
     is the Newton homotopy at the perturbed problem). Returns (record, OT Solution or None)."""
     import numpy as np
-    import yaml
     from spaceopt.indirect import chain
     from spaceopt.indirect import hamiltonians as hm
     from spaceopt.studies import perturbed as P
 
-    pc = yaml.safe_load((ROOT / "config/studies/perturbed.yaml").read_text())["perturbed"]
+    pc = _perturbed_config()
     eph = P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"])
     tr = P.transfer_from_config(pc, "e8", model, ephemeris=eph, n_rev=n_rev)
     path = pc["numerics"].get("homotopy_path", "arclength")
@@ -291,7 +313,8 @@ def e8_chain(n_rev: float, model: str, start=None) -> tuple[dict, object]:
             rec.update(route=f"chain LP -> OT ({path})", lp_stats=_jsonable(lp.stats),
                        jacobian_evaluations=_jacobians(lp.stats) + _jacobians(ot.stats))
         else:
-            ot = P.warm_start(start, tr, label)
+            ot = P.warm_start(start, tr, label, eps_smooth=P.perturb_at_eps(pc, "e8"),
+                              model_step_eps=P.perturb_at_eps(pc, "e8", "model_step_at_eps"))
             rec.update(route=f"warm start from the converged {start.transfer.perturbations or 'unperturbed'} "
                              f"OT solution (studies.perturbed.warm_start); wall time excludes that solve",
                        jacobian_evaluations=_jacobians(ot.stats))
