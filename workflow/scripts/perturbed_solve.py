@@ -26,8 +26,7 @@ def main(sm):
         (f"/n{kw['n_rev']:g}" if "n_rev" in kw else "")
     # perturbations switched on / the force model changed at a larger smoothing ε than ε_f
     # (case options perturb_at_eps, model_step_at_eps)
-    eps_kw = {"eps_smooth": P.perturb_at_eps(cfg, case),
-              "model_step_eps": P.perturb_at_eps(cfg, case, "model_step_at_eps")}
+    eps_kw = P.warm_start_eps(cfg, case)
     t0 = time.perf_counter()
     artifacts.clear_failures(out)
 

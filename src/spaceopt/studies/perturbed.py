@@ -199,26 +199,20 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
     if sol.transfer.n_rev != tr_to.n_rev:
         # more revolutions add burn arcs: move L_f at the smoothing ε₁ of the blend (E8)
         move = functools.partial(chain.continue_in_params_smoothed, eps_smooth=tr_to.eps_blend)
-    elif model_step_eps is not None and sol.transfer.perturbations != tr_to.perturbations:
+    if sol.transfer.n_rev == tr_to.n_rev and model_step_eps is not None \
+            and sol.transfer.perturbations != tr_to.perturbations:
         # new force model at a larger smoothing ε, followed in arclength (E7: J2 → 4×4 + Moon +
         # Sun; at ε_f its path stalls at τ 0.08)
-        return _force_model_step_smoothed(sol, tr_to, prm_to, model_step_eps, label)
-    try:
-        out = move(sol, prm_to, options=options, label=label)
-        out.stats["warm_path"] = "tau"
-    except ConvergenceError as exc:
-        out = move(sol, prm_to, options=None, label=label + " (arclength)", path="arclength")
-        out.stats.update(warm_path="arclength", tau_path_failure=str(exc))
-    out.transfer, out.thrust_N = tr_to, sol.thrust_N
-    return out
-
-
-def _force_model_step_smoothed(sol: Solution, tr_to: Transfer, prm_to: dict, eps_smooth: float,
-                               label: str) -> Solution:
-    """Perturbed → perturbed with another force model through ε = ``eps_smooth``
-    (:func:`chain.continue_in_params_smoothed`, the model step in arclength)."""
-    out = chain.continue_in_params_smoothed(sol, prm_to, eps_smooth=eps_smooth, label=label, path="arclength")
-    out.stats["warm_path"] = f"arclength at eps = {eps_smooth:g}"
+        out = chain.continue_in_params_smoothed(sol, prm_to, eps_smooth=model_step_eps, label=label,
+                                                path="arclength")
+        out.stats["warm_path"] = f"arclength at eps = {model_step_eps:g}"
+    else:
+        try:
+            out = move(sol, prm_to, options=options, label=label)
+            out.stats["warm_path"] = "tau"
+        except ConvergenceError as exc:
+            out = move(sol, prm_to, options=None, label=label + " (arclength)", path="arclength")
+            out.stats.update(warm_path="arclength", tau_path_failure=str(exc))
     out.transfer, out.thrust_N = tr_to, sol.thrust_N
     return out
 
@@ -234,6 +228,12 @@ def perturb_at_eps(pc: dict, case: str, key: str = "perturb_at_eps") -> float | 
     if not pc["numerics"]["eps_final"] < val <= 1.0:
         raise ConfigError(f"perturbed.cases.{case}.{key}", eps, "must lie in (eps_final, 1]")
     return val
+
+
+def warm_start_eps(pc: dict, case: str) -> dict:
+    """The ε keyword arguments of :func:`warm_start` from the case options ``perturb_at_eps``
+    and ``model_step_at_eps`` (each checked by :func:`perturb_at_eps`)."""
+    return {"eps_smooth": perturb_at_eps(pc, case), "model_step_eps": perturb_at_eps(pc, case, "model_step_at_eps")}
 
 
 def perturbation_switch(tr: Transfer) -> Shooting:
