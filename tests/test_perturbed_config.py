@@ -218,6 +218,23 @@ def test_path_rtol_reaches_every_shooting_problem_and_is_checked():
         dataclasses.replace(e5, path_rtol=0.1)
 
 
+def test_path_rtol_per_model_mapping():
+    from spaceopt.indirect.transfer import PATH_RTOL
+
+    def with_rtol(value):
+        pc = copy.deepcopy(PC)
+        pc["cases"]["e9"]["path_rtol"] = value
+        return pc
+
+    pc = with_rtol({"g44": 1e-11})
+    assert P.transfer_from_config(pc, "e9", "g44").path_rtol == 1e-11
+    assert P.transfer_from_config(pc, "e9", "j2").path_rtol == PATH_RTOL
+    with pytest.raises(ConfigError, match=r"perturbed\.cases\.e9\.path_rtol\.unperturbed"):
+        P.transfer_from_config(with_rtol({"unperturbed": 1e-11}), "e9", "j2")
+    with pytest.raises(ConfigError, match=r"perturbed\.cases\.e9\.path_rtol\.g44"):
+        P.transfer_from_config(with_rtol({"g44": "tight"}), "e9", "g44")
+
+
 def test_perturb_at_eps_is_read_and_checked():
     assert P.perturb_at_eps(PC, "e7") == PC["cases"]["e7"]["perturb_at_eps"]
     assert P.perturb_at_eps(PC, "e7", "model_step_at_eps") == PC["cases"]["e7"]["model_step_at_eps"]
@@ -260,3 +277,26 @@ def test_force_model_step_goes_through_the_smoothing_eps(monkeypatch):
     calls.clear()
     P.warm_start(sol, g44, "test", eps_smooth=1e-2)          # perturb_at_eps alone: at ε_f
     assert calls == [("plain", None, "tau", True)]
+
+
+def test_warm_start_integrates_with_the_new_problems_settings(monkeypatch):
+    """Every stage of a warm start follows its path with the target transfer's path_rtol and
+    step cap (E8: J2 at 1e-9 → 4×4 + Moon + Sun at the tighter rtol of the full model)."""
+    import numpy as np
+
+    from spaceopt.indirect import chain
+    j2 = P.transfer_from_config(PC, "e9", "j2")
+    g44 = dataclasses.replace(P.transfer_from_config(PC, "e9", "g44"), path_rtol=1e-11, max_steps=123_000)
+    sh = chain.shooting_for("ot", "eps", j2)
+    sol = chain.Solution("ot", sh, np.zeros(len(sh.unknown_names())), j2.params(thrust=1.0), j2, {}, thrust_N=1.0)
+    seen = []
+
+    def move(s, prm_to, options=None, label="", path="tau"):
+        seen.append((s.shooting.path_rtol, s.shooting.max_steps, s.transfer.path_rtol, s.transfer.max_steps))
+        return dataclasses.replace(s, stats={})
+
+    monkeypatch.setattr(chain, "continue_in_params", move)
+    out = P.warm_start(sol, g44, "test")
+    assert seen == [(1e-11, 123_000, 1e-11, 123_000)]
+    assert (out.shooting.path_rtol, out.shooting.max_steps) == (1e-11, 123_000)
+    assert sol.shooting.path_rtol == j2.path_rtol != 1e-11         # the start is not changed
