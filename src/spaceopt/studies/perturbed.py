@@ -215,18 +215,17 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
         shift = float(sol.prm["pert"].epoch) - float(prm_to["pert"].epoch)
         sol = dataclasses.replace(sol, prm={**sol.prm, "epoch_offset_s": jnp.asarray(shift)})
         prm_to = {**prm_to, "epoch_offset_s": jnp.asarray(0.0)}
-    move = chain.continue_in_params
-    if sol.transfer.n_rev != tr_to.n_rev:
-        # more revolutions add burn arcs: move L_f at the smoothing ε₁ of the blend (E8)
-        move = functools.partial(chain.continue_in_params_smoothed, eps_smooth=tr_to.eps_blend)
-    if sol.transfer.n_rev == tr_to.n_rev and model_step_eps is not None \
-            and sol.transfer.perturbations != tr_to.perturbations:
+    same_count = sol.transfer.n_rev == tr_to.n_rev
+    if same_count and model_step_eps is not None and sol.transfer.perturbations != tr_to.perturbations:
         # new force model at a larger smoothing ε, followed in arclength (E7: J2 → 4×4 + Moon +
         # Sun; at ε_f its path stalls at τ 0.08)
         out = chain.continue_in_params_smoothed(sol, prm_to, eps_smooth=model_step_eps, label=label,
                                                 path="arclength")
         out.stats["warm_path"] = f"arclength at eps = {model_step_eps:g}"
     else:
+        # more revolutions add burn arcs: move L_f at the smoothing ε₁ of the blend (E8)
+        move = chain.continue_in_params if same_count else functools.partial(
+            chain.continue_in_params_smoothed, eps_smooth=tr_to.eps_blend)
         try:
             out = move(sol, prm_to, options=options, label=label)
             out.stats["warm_path"] = "tau"
