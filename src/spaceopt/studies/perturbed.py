@@ -136,8 +136,9 @@ def case_path_rtol(cc: dict, model: str, path: str) -> float:
     """Case option ``path_rtol``: the integration rtol while a homotopy path is followed, one
     number for every model of the case, or a mapping {model: rtol} (models not named, and cases
     without the option, keep the default PATH_RTOL). E8 names only its full model: at 1e-9 the
-    propagated Jacobian of 4×4 + Moon + Sun is too inaccurate for Newton's corrector (measured
-    ‖J⁻¹ δJ‖ = 9 at the converged 200-revolution extremal; 0.14 at 1e-10)."""
+    propagated Jacobian of 4×4 + Moon + Sun is too inaccurate for Newton's corrector (‖J⁻¹ δJ‖ =
+    2.5 at the converged 200-revolution extremal; 0.27 at 1e-10, 0.008 at 1e-11, measured by
+    docs/experiments/path_jacobian_accuracy.py)."""
     val = cc.get("path_rtol")
     if not isinstance(val, dict):
         return PATH_RTOL if val is None else _number(cc, "path_rtol", path, positive=True)
