@@ -300,23 +300,3 @@ def test_warm_start_integrates_with_the_new_problems_settings(monkeypatch):
     assert seen == [(1e-11, 123_000, 1e-11, 123_000)]
     assert (out.shooting.path_rtol, out.shooting.max_steps) == (1e-11, 123_000)
     assert sol.shooting.path_rtol == j2.path_rtol != 1e-11         # the start is not changed
-
-
-def test_final_polish_damps_a_newton_step_that_overshoots():
-    """Polish of e^z − 1 = 0 from z = −3 (the path, z + 3 = 0, ends there): the full Newton
-    step jumps to z ≈ 16 (|F| ≈ 1e7), so the undamped polish gives up; halved three times
-    it lands at z ≈ −0.6 and Newton converges to z = 0."""
-    import numpy as np
-    from spaceopt.errors import ConvergenceError
-    from spaceopt.indirect.continuation import Continuation, ContinuationOptions
-
-    def path(z, tau):
-        return z + 3.0, np.eye(1), np.zeros(1), 0, True
-
-    def polish(z, tau):
-        return np.expm1(z), np.array([[np.exp(z[0])]]), np.zeros(1), 0, True
-
-    z, _ = Continuation(path, ContinuationOptions(verbose=False), polish=polish).run(np.array([-3.0]))
-    assert abs(z[0]) < 1e-10
-    with pytest.raises(ConvergenceError, match="polish"):
-        Continuation(path, ContinuationOptions(verbose=False, max_damping=0), polish=polish).run(np.array([-3.0]))

@@ -38,7 +38,6 @@ class ContinuationOptions:
     tol_final: float = 1e-10
     max_corrector: int = 4
     max_final: int = 12
-    max_damping: int = 4
     max_steps: int = 2000
     verbose: bool = True
     label: str = ""
@@ -176,34 +175,15 @@ class Continuation:
 
     def _polish(self, z, J, F, tau, h, t_start, solve, tag):
         """Final Newton iterations at τ (polishing tolerances) while |F| > tol_final and it does not
-        double; records the statistics, raises the diagnosis when |F| stays above 1e3 tol_final.
-
-        While |F| is still above that acceptance bound, a full step that fails is damped
-        (z + λ d, λ = ½, ¼, …, ``max_damping`` halvings; accepted when |F| decreases): the end point of
-        a path followed with a loose corrector (|F| up to ``tol_step``) on an ill-conditioned
-        problem can lie outside the full-step basin (E8 4×4 + Moon + Sun at 300 revolutions, the
-        model step at ε = 10⁻³: the arclength path reached τ = 1 and the undamped polish failed).
-        Below the bound the polish stops at the first failing full step, as without damping."""
+        double; records the statistics, raises the diagnosis when |F| stays above 1e3 tol_final."""
         opt = self.opt
         nF = _norm(F)
         for _ in range(opt.max_final):
             if nF <= opt.tol_final:
                 break
-            d = solve(J, -F)
-            lam, halvings = 1.0, opt.max_damping if nF > opt.tol_final * 1e3 else 0
-            while True:
-                z_new = z + lam * d
-                f_new, J_new, _, ok = self._eval(z_new, tau, final=True)
-                good = ok and np.all(np.isfinite(f_new))
-                if good and _norm(f_new) <= (2.0 if lam == 1.0 else 1.0) * nF:
-                    break
-                if halvings == 0:
-                    good = False
-                    break
-                lam, halvings = 0.5 * lam, halvings - 1
-                self._log(f"  polish: |F| {nF:.2e} -> {_norm(f_new) if ok else float('nan'):.2e}, "
-                          f"step damped to {lam:g}")
-            if not good:
+            z_new = z + solve(J, -F)
+            f_new, J_new, _, ok = self._eval(z_new, tau, final=True)
+            if not ok or not np.all(np.isfinite(f_new)) or _norm(f_new) > 2.0 * nF:
                 break
             z, F, J, nF = z_new, f_new, J_new, _norm(f_new)
         self.stats.residual = nF
