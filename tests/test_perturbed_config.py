@@ -300,3 +300,33 @@ def test_warm_start_integrates_with_the_new_problems_settings(monkeypatch):
     assert seen == [(1e-11, 123_000, 1e-11, 123_000)]
     assert (out.shooting.path_rtol, out.shooting.max_steps) == (1e-11, 123_000)
     assert sol.shooting.path_rtol == j2.path_rtol != 1e-11         # the start is not changed
+
+
+def test_e8_runs_leave_out_the_skipped_counts_and_check_them():
+    e8 = {"n_rev": [200, 250, 300], "run_n_rev": [200, 250, 300], "run_models": ["unperturbed", "g44_moon_sun"],
+          "skip_n_rev": {"g44_moon_sun": [300]}}
+    pc = {**PC, "e8": e8}
+    assert P.e8_runs(pc) == [("unperturbed", 200.0), ("unperturbed", 250.0), ("unperturbed", 300.0),
+                             ("g44_moon_sun", 200.0), ("g44_moon_sun", 250.0)]
+    assert len(P.e8_runs({**PC, "e8": {**e8, "skip_n_rev": None}})) == 6
+    with pytest.raises(ConfigError, match=r"skip_n_rev\.g44_moon_sun.*350"):
+        P.e8_runs({**PC, "e8": {**e8, "skip_n_rev": {"g44_moon_sun": [350]}}})
+    with pytest.raises(ConfigError, match=r"skip_n_rev\.j2"):
+        P.e8_runs({**PC, "e8": {**e8, "skip_n_rev": {"j2": [300]}}})
+    with pytest.raises(ConfigError, match=r"run_n_rev.*275"):
+        P.e8_runs({**PC, "e8": {**e8, "run_n_rev": [275]}})
+
+
+def test_e8_range_rows_say_which_counts_they_cover():
+    """The §4.2.2 range statements (200–500 rev) taken over fewer paired counts get a note."""
+    cases = {c: {"models": PC["cases"][c]["models"]} for c in PC["cases"]}
+    pay = {f"e8_{m}_n{n}": _payload(2000 - mp, 150.0, m0=2000, n=n)
+           for n, pairs in ((200, {"unperturbed": 194.9, "g44_moon_sun": 196.6}), (250, {"unperturbed": 175.0}))
+           for m, mp in pairs.items()}
+    tabs = R.tables(pay, ["e8"], cases, PC["e6"], [200, 250])
+    notes = R.e8_range_notes(tabs, [200, 250])
+    rows = {(r["case"], r["quantity"]): r for r in R.reproduction_rows(PUB, R.ours(tabs, pay, {}, None), notes)}
+    assert rows[("e8", "perturbation_costs_fuel")]["status"] == "pass"
+    assert "n_rev = 200 " in rows[("e8", "fuel_increase_max_kg")]["note"]
+    assert rows[("e8_g44_moon_sun_n500", "propellant_kg")]["status"] == "missing"
+    assert R.e8_range_notes(tabs, [200]) == {}

@@ -48,15 +48,28 @@ def test_full_reproduction_plans_e6_dates_from_the_unperturbed_solve_and_e8_coun
     ns = sorted(PT["e8"]["run_n_rev"])
     models = PT["cases"]["e8"]["models"]
     run_models = PT["e8"].get("run_models", models)
+    skip = {m: {float(n) for n in ns_} for m, ns_ in (PT["e8"].get("skip_n_rev") or {}).items()}
     needed = models[:max(models.index(m) for m in run_models) + 1]     # with their start models
-    assert len(e8) == len(ns) * len(needed)
+    last = needed[-1]                                # skipped counts of the last model are not planned
+    assert len(e8) == len(ns) * len(needed) - len(skip.get(last, ()))
+    for n in skip.get(last, ()):
+        assert f"results/perturbed/e8/{last}_n{n:g}.json" not in e8
     for m in run_models:
         if m == models[0]:
             for lo, hi in zip(ns, ns[1:]):           # each count from the next smaller one
                 assert f"results/perturbed/e8/{m}_n{lo:g}.json" in e8[f"results/perturbed/e8/{m}_n{hi:g}.json"]
         else:                                        # from the previous model at the same count
             prev = models[models.index(m) - 1]
-            for n in ns:
+            for n in (n for n in ns if n not in skip.get(m, ())):
                 inputs = e8[f"results/perturbed/e8/{m}_n{n:g}.json"]
                 assert f"results/perturbed/e8/{prev}_n{n:g}.json" in inputs
                 assert not any(i.startswith(f"results/perturbed/e8/{m}_") for i in inputs)
+
+
+def test_paper_command_of_the_full_profile_passes_its_empty_profile_note():
+    """The full profile has no report.paper.profile_note: the paper rule must still hand
+    paper_build.py a value (``--note=``), not a bare ``--note`` that argparse rejects."""
+    rc, out = smk("-n", "-p", "--forcerun", "paper", "--cores", "1", "results/paper/paper.pdf")
+    assert rc == 0, out[-2000:]
+    cmd = next(line for line in out.splitlines() if "paper_build.py" in line and "--tex" in line)
+    assert "--note=" in cmd and "--note " not in cmd + " "

@@ -4,9 +4,9 @@
 #   results/perturbed/e8/<model>_n<n>.{json,npz,rrd}    E8 (n to n; perturbed from unperturbed at n)
 #   results/perturbed/e9_budget.json                    ΔΩ budget check (spec §6)
 #   results/perturbed/{e5,e6_date_scan,e7,e8,e9}.csv, reproduction.csv, paper_section.tex, figures/
-from spaceopt.studies.perturbed import scan_start_from
+from spaceopt.studies.perturbed import e8_runs, scan_start_from
 
-check_section("perturbed", physical=lambda pc: scan_start_from(pc["e6"]))
+check_section("perturbed", physical=lambda pc: (scan_start_from(pc["e6"]), e8_runs(pc)))
 PT = config["perturbed"]
 PTDIR = f"{RESULTS}/perturbed"
 PT_SRC = lib_sources("indirect", "elements", "forces", "ephemeris", "frames", "artifacts",
@@ -196,9 +196,8 @@ def pt_stage_jsons():
         for d in pt_e6_dates():
             out[f"e6_{d}"] = f"{PTDIR}/e6/{d}.json"
     if "e8" in run:
-        for m in E8.get("run_models", PT["cases"]["e8"]["models"]):
-            for n in E8["run_n_rev"]:
-                out[f"e8_{m}_n{_pt_fmt(n)}"] = f"{PTDIR}/e8/{m}_n{_pt_fmt(n)}.json"
+        for m, n in e8_runs(PT):
+            out[f"e8_{m}_n{_pt_fmt(n)}"] = f"{PTDIR}/e8/{m}_n{_pt_fmt(n)}.json"
     return out
 
 

@@ -196,7 +196,7 @@ rule paper:
         f"{RESULTS}/benchmarks/rules/paper.tsv"
     shell:
         "{PY} {input.script} --tex paper/paper.tex --results {params.results} --build {params.build} "
-        "--out {output.pdf} --epoch {params.epoch} --note {params.note:q} 2> {log} || {{ tail -n1 {log} >&2; exit 1; }}"
+        "--out {output.pdf} --epoch {params.epoch} --note={params.note:q} 2> {log} || {{ tail -n1 {log} >&2; exit 1; }}"
 
 
 ALL_TARGETS += [f"{REPORT_DIR}/scoreboard.csv"]

@@ -24,7 +24,8 @@ def main(sm):
     Path(sm.output.md).write_text(R.markdown(tabs, e6sum, budget))
     Path(sm.output.tex).parent.mkdir(parents=True, exist_ok=True)
     Path(sm.output.tex).write_text(R.latex(tabs))
-    rows = R.reproduction_rows(sm.input._pub, R.ours(tabs, payloads, npzs, budget))
+    rows = R.reproduction_rows(sm.input._pub, R.ours(tabs, payloads, npzs, budget),
+                               R.e8_range_notes(tabs, sm.params.e8_n))
     R.write_rows(sm.output.repro, rows)
 
 

@@ -375,6 +375,35 @@ def scan_start_from(e6: dict) -> dict[str, str]:
     return dict(start_from)
 
 
+# ---------------------------------------------------------------- E8 counts
+
+def e8_runs(pc: dict) -> list[tuple[str, float]]:
+    """(model, n_rev) of the E8 solves the tables ask for (the solves they start from come with
+    them): ``perturbed.e8.run_models`` (default: the
+    case's models) × ``run_n_rev``, less the counts ``skip_n_rev`` names for a model (counts whose
+    route is known not to converge, each with its measured reason in the config). Checked: the
+    run models are models of the case, the run counts lie on the ``n_rev`` grid, and every skipped
+    count is a run count of a run model."""
+    e8, models = pc["e8"], pc["cases"]["e8"]["models"]
+    run_models = e8.get("run_models", models)
+    for m in run_models:
+        if m not in models:
+            raise ConfigError("perturbed.e8.run_models", m, f"not a model of case e8 (expected one of {', '.join(models)})")
+    grid = [float(n) for n in e8["n_rev"]]
+    counts = [float(n) for n in e8["run_n_rev"]]
+    for n in counts:
+        if n not in grid:
+            raise ConfigError("perturbed.e8.run_n_rev", n, "not a count of perturbed.e8.n_rev")
+    skip = e8.get("skip_n_rev") or {}
+    for m, ns in skip.items():
+        if m not in run_models:
+            raise ConfigError(f"perturbed.e8.skip_n_rev.{m}", ns, "not a model of perturbed.e8.run_models")
+        for n in ns:
+            if float(n) not in counts:
+                raise ConfigError(f"perturbed.e8.skip_n_rev.{m}", n, "not a count of perturbed.e8.run_n_rev")
+    return [(m, n) for m in run_models for n in counts if n not in {float(x) for x in skip.get(m, [])}]
+
+
 # ---------------------------------------------------------------- E9 ΔΩ budget
 
 def j2_secular_rates(orbit: Orbit, mu: float, j2: float, radius: float) -> dict:

@@ -198,9 +198,29 @@ MISS_NOTES = {
 }
 
 
-def reproduction_rows(published_path, o: dict) -> list[dict]:
+E8_RANGE = ("perturbation_costs_fuel", "fuel_increase_min_kg", "fuel_increase_max_kg", "dtime_500_days")
+
+
+def e8_range_notes(tabs: dict, e8_n: list) -> dict:
+    """Notes on the E8 range statements (§4.2.2: over 200–500 revolutions) when our perturbed /
+    unperturbed pairs do not cover every count of ``e8_n``: the counts they are taken over."""
+    models = {}
+    for r in tabs["e8"]:
+        models.setdefault(r["n_rev"], set()).add(r["model"])
+    paired = sorted(n for n, ms in models.items() if {"unperturbed", "g44_moon_sun"} <= ms)
+    if not paired or set(paired) >= {float(n) for n in e8_n}:
+        return {}
+    note = ("over the counts with both solves only, n_rev = " + ", ".join(f"{n:g}" for n in paired) +
+            " (the published range is over 200-500)")
+    return {("e8", q): note for q in E8_RANGE}
+
+
+def reproduction_rows(published_path, o: dict, notes: dict | None = None) -> list[dict]:
+    """Compared rows; ``notes`` ({(case, quantity): text}) are added to their rows whatever the status."""
     rows = compare.compare(published_path, o)
     for r in rows:
+        if (r["case"], r["quantity"]) in (notes or {}):
+            r["note"] = "; ".join(s for s in (r["note"], notes[(r["case"], r["quantity"])]) if s)
         if r["status"] == "missing":
             r["note"] = "; ".join(s for s in (r["note"], "not produced in this run (not in the run list, or its solve did not converge: see the study log)") if s)
         elif r["status"] == "fail" and (r["case"], r["quantity"]) in MISS_NOTES:
