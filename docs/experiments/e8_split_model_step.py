@@ -1,0 +1,44 @@
+"""E8 at n revolutions: the J2 → 4×4 + Moon + Sun model step split in two, J2 → 4×4 → 4×4 + Moon + Sun.
+
+The DAG's route (case e8, models [unperturbed, j2, g44_moon_sun]) makes the step J2 → full model
+at once, at ε_f; it converged at 200 and 250 revolutions and crawls from 300 on
+(docs/perturbed-e6-e7-e8.md, "third session of 23 Nov"). This runs the split route from the J2
+artifact of the DAG (``results/perturbed/e8/j2_n<n>.json``): each half by
+``studies.perturbed.warm_start`` at ε_f (Newton homotopy in the force model, τ path, arclength
+where it stalls), with the full model's path rtol (1e-11) for both halves, and prints each
+half's Jacobian count, wall time, m_p and Δt. Nothing is written under results/.
+
+Usage (repository root, after the J2 artifact exists):
+    python docs/experiments/e8_split_model_step.py 300
+"""
+import argparse
+import time
+
+from spaceopt.config import load_yaml
+from spaceopt.studies import perturbed as P, trajectory
+
+SPLIT = ("j2", "g44", "g44_moon_sun")
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("n_rev", type=float)
+    ap.add_argument("--path-rtol", type=float, default=1e-11)
+    a = ap.parse_args()
+    pc = load_yaml("config/studies/perturbed.yaml")["perturbed"]
+    pc["cases"]["e8"] = {**pc["cases"]["e8"], "models": ["unperturbed", *SPLIT], "path_rtol": a.path_rtol}
+    eph = P.ephemeris_path("results", pc["cases"]["e8"]["ephemeris"])
+    sol = P.load(f"results/perturbed/e8/j2_n{a.n_rev:g}.json")
+    m0 = sol.transfer.m0
+    for model in SPLIT[1:]:
+        tr = P.transfer_from_config(pc, "e8", model, ephemeris=eph, n_rev=a.n_rev)
+        t0 = time.perf_counter()
+        sol = P.warm_start(sol, tr, f"e8 split -> {model} n{a.n_rev:g}")
+        s = P.multirev.scalars(sol, trajectory.sample(sol, 20))
+        print(f"{model}: {sol.stats.get('jacobian_evaluations')} Jacobians, {time.perf_counter() - t0:.0f} s, "
+              f"path {sol.stats.get('warm_path')}, m_p = {m0 - s['m_f_kg']:.4f} kg, "
+              f"dt = {float(s['tof_days']):.4f} d", flush=True)
+
+
+if __name__ == "__main__":
+    main()
