@@ -382,8 +382,9 @@ def e8_runs(pc: dict) -> list[tuple[str, float]]:
     them): ``perturbed.e8.run_models`` (default: the case's models) × ``run_n_rev``, less the
     counts ``skip_n_rev`` names for a model (counts whose route is known not to converge, each
     with its measured reason in the config; counts that are not run anyway are ignored, so a
-    profile with fewer counts, e.g. the quick one, keeps the map). Checked: the run models are models of the case, the run counts lie on the ``n_rev``
-    grid, and the skipped models are run models."""
+    profile with fewer counts, e.g. the quick one, keeps the map). Checked: the run models are
+    models of the case, the run counts lie on the ``n_rev`` grid, and the skipped models are run
+    models."""
     e8, models = pc["e8"], pc["cases"]["e8"]["models"]
     run_models = e8.get("run_models", models)
     for m in run_models:
@@ -394,11 +395,12 @@ def e8_runs(pc: dict) -> list[tuple[str, float]]:
     for n in counts:
         if n not in grid:
             raise ConfigError("perturbed.e8.run_n_rev", n, "not a count of perturbed.e8.n_rev")
-    skip = e8.get("skip_n_rev") or {}
-    for m, ns in skip.items():
+    skip = {}
+    for m, ns in (e8.get("skip_n_rev") or {}).items():
         if m not in run_models:
             raise ConfigError(f"perturbed.e8.skip_n_rev.{m}", ns, "not a model of perturbed.e8.run_models")
-    return [(m, n) for m in run_models for n in counts if n not in {float(x) for x in skip.get(m, [])}]
+        skip[m] = {float(n) for n in ns}
+    return [(m, n) for m in run_models for n in counts if n not in skip.get(m, ())]
 
 
 # ---------------------------------------------------------------- E9 ΔΩ budget

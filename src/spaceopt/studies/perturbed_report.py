@@ -122,6 +122,19 @@ def e6_summary(rows: list, unperturbed: dict | None) -> dict:
             "n_dates": len(pert)}
 
 
+def e8_by_count(tabs: dict) -> dict:
+    """{n_rev: {model: row}} of the E8 table."""
+    by = {}
+    for r in tabs["e8"]:
+        by.setdefault(r["n_rev"], {})[r["model"]] = r
+    return by
+
+
+def e8_paired_counts(by: dict) -> list:
+    """The counts (ascending) with both an unperturbed and a 4×4 + Moon + Sun solve."""
+    return sorted(n for n, d in by.items() if "unperturbed" in d and "g44_moon_sun" in d)
+
+
 def ours(tabs: dict, payloads: dict, npzs: dict, budget: dict | None) -> dict:
     """(case, quantity) → our value, for the published file's keys."""
     o = {}
@@ -136,12 +149,11 @@ def ours(tabs: dict, payloads: dict, npzs: dict, budget: dict | None) -> dict:
         if u:
             o[("e6_unperturbed", "m_f_kg")] = u[0]["m_f_kg"]
             o[("e6_unperturbed", "tof_days")] = u[0]["tof_days"]
-    by = {}
     for r in tabs["e8"]:
-        by.setdefault(r["n_rev"], {})[r["model"]] = r
         tag = f"e8_{r['model']}_n{r['n_rev']:g}"
         o[(tag, "propellant_kg")] = r["propellant_kg"]
         o[(tag, "tof_days")] = r["tof_days"]
+    by = e8_by_count(tabs)
     u500 = by.get(500.0, {}).get("unperturbed")
     if u500:
         for q in ("propellant_kg", "tof_days"):
@@ -150,8 +162,7 @@ def ours(tabs: dict, payloads: dict, npzs: dict, budget: dict | None) -> dict:
     if p500:
         for q in ("propellant_kg", "tof_days"):
             o[("e8_aziz_perturbed_n500", q)] = p500[q]
-    pairs = [(n, d["unperturbed"], d["g44_moon_sun"]) for n, d in sorted(by.items())
-             if "unperturbed" in d and "g44_moon_sun" in d]
+    pairs = [(n, by[n]["unperturbed"], by[n]["g44_moon_sun"]) for n in e8_paired_counts(by)]
     if pairs:
         dm = [p["propellant_kg"] - u["propellant_kg"] for _, u, p in pairs]
         o[("e8", "perturbation_costs_fuel")] = str(all(x > 0 for x in dm)).lower()
@@ -204,10 +215,7 @@ E8_RANGE = ("perturbation_costs_fuel", "fuel_increase_min_kg", "fuel_increase_ma
 def e8_range_notes(tabs: dict, e8_n: list) -> dict:
     """Notes on the E8 range statements (§4.2.2: over 200–500 revolutions) when our perturbed /
     unperturbed pairs do not cover every count of ``e8_n``: the counts they are taken over."""
-    models = {}
-    for r in tabs["e8"]:
-        models.setdefault(r["n_rev"], set()).add(r["model"])
-    paired = sorted(n for n, ms in models.items() if {"unperturbed", "g44_moon_sun"} <= ms)
+    paired = e8_paired_counts(e8_by_count(tabs))
     if not paired or set(paired) >= {float(n) for n in e8_n}:
         return {}
     note = ("over the counts with both solves only, n_rev = " + ", ".join(f"{n:g}" for n in paired) +
