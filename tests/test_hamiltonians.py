@@ -134,3 +134,20 @@ def test_perturbation_strength_homotopy_end_points():
     for tau in (0.0, 0.3, 1.0):
         np.testing.assert_allclose(field(Model("ot", "pert", True), K, y, tau, prm),
                                    g_u + tau * (g_p - g_u), rtol=1e-12, atol=1e-15)
+
+
+def test_force_model_blend_is_linear_in_the_acceleration():
+    """Model('ot', 'model'): the perturbation field of prm['pert_from'] at τ = 0, of prm['pert']
+    at τ = 1, and (1 − τ) · from + τ · to between (H_p is linear in a_p)."""
+    from spaceopt.forces import build_model
+    K, x, lam = random_point(6)
+    y = jnp.concatenate([x, lam])
+    base = {**PRM, "path_from": {}, "path_to": {}, "du": 7.0e6, "tu": 806.0}
+    j2 = build_model({"geopotential": "j2"}, "2021-05-09T12:00:00", None)
+    g44 = build_model({"geopotential": {"degree": 4, "order": 4}}, "2021-05-09T12:00:00", None)
+    g_j2, g_44 = (field(Model("ot", "param", True), K, y, 0.0, {**base, "pert": m}) for m in (j2, g44))
+    assert np.max(np.abs(np.asarray(g_44 - g_j2))) > 1e-9
+    prm = {**base, "pert": g44, "pert_from": j2}
+    for tau in (0.0, 0.4, 1.0):
+        np.testing.assert_allclose(field(Model("ot", "model", True), K, y, tau, prm),
+                                   (1 - tau) * g_j2 + tau * g_44, rtol=1e-12, atol=1e-15)

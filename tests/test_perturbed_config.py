@@ -254,7 +254,7 @@ def test_perturb_at_eps_is_read_and_checked():
 
 def test_force_model_step_goes_through_the_smoothing_eps(monkeypatch):
     """warm_start J2 → 4×4 with model_step_eps: the model step is done at that ε, in arclength
-    (E7's route); without it, at ε_f by the plain parameter continuation (E8's, E9's)."""
+    (E7's route); without it, at ε_f by the model blend (E8's, E9's)."""
     import numpy as np
 
     from spaceopt.indirect import chain
@@ -274,9 +274,10 @@ def test_force_model_step_goes_through_the_smoothing_eps(monkeypatch):
     out = P.warm_start(sol, g44, "test", eps_smooth=1e-3, model_step_eps=1e-2)
     assert calls == [("smoothed", 1e-2, "arclength", True)]
     assert out.transfer is g44 and out.stats["warm_path"] == "arclength at eps = 0.01"
+    monkeypatch.setattr(chain, "continue_in_model", record("model"))
     calls.clear()
     P.warm_start(sol, g44, "test", eps_smooth=1e-2)          # perturb_at_eps alone: at ε_f
-    assert calls == [("plain", None, "tau", True)]
+    assert calls == [("model", None, "tau", True)]
 
 
 def test_warm_start_integrates_with_the_new_problems_settings(monkeypatch):
@@ -295,7 +296,7 @@ def test_warm_start_integrates_with_the_new_problems_settings(monkeypatch):
         seen.append((s.shooting.path_rtol, s.shooting.max_steps, s.transfer.path_rtol, s.transfer.max_steps))
         return dataclasses.replace(s, stats={})
 
-    monkeypatch.setattr(chain, "continue_in_params", move)
+    monkeypatch.setattr(chain, "continue_in_model", move)
     out = P.warm_start(sol, g44, "test")
     assert seen == [(1e-11, 123_000, 1e-11, 123_000)]
     assert (out.shooting.path_rtol, out.shooting.max_steps) == (1e-11, 123_000)

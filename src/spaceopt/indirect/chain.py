@@ -250,6 +250,24 @@ def continue_in_params(sol: Solution, prm_to: dict, options=None, label="param",
     return out
 
 
+def continue_in_model(sol: Solution, prm_to: dict, options=None, label="model", path: str = "tau") -> Solution:
+    """From a converged perturbed OT solution to the same problem under another force model
+    (``prm_to['pert']``, every other datum the solution's), at its ε, by the model blend
+    (flow.Model homotopy 'model'): a_p = (1 − τ) a_p,from + τ a_p,to.
+
+    The physical path, unlike the Newton homotopy f(z, τ) = (1 − τ) f(z₀) at the new model:
+    E8 at 300 revolutions, 4×4 → 4×4 + Moon + Sun at ε_f, the Newton homotopy folds at τ ≈ 0.35
+    (113 Jacobians, docs/perturbed-e6-e7-e8.md); the blend of the Moon and Sun terms converges in 13.
+    """
+    moved = [k for k in ("thrust", "L0", "Lf", "c", "eps_final", "epoch_offset_s")
+             if (k in sol.prm or k in prm_to) and not np.isclose(sol.prm.get(k, 0.0), prm_to.get(k, 0.0), rtol=0, atol=0)]
+    if moved or sol.stage != "ot" or not sol.shooting.model.perturbed:
+        raise ValueError(f"continue_in_model: a perturbed OT solution at the same data is needed (differs: {moved})")
+    sh = dataclasses.replace(sol.shooting, model=dataclasses.replace(sol.shooting.model, homotopy="model"))
+    z, stats = _run(sh, sol.z, {**prm_to, "pert_from": sol.prm["pert"]}, label, options, path)
+    return Solution(sol.stage, sol.shooting, z, dict(prm_to), sol.transfer, stats, thrust_N=sol.thrust_N)
+
+
 def smoothing_to(sol: Solution, eps_to: float, options=None, label="eps") -> Solution:
     """The OT solution ``sol`` (at ε = prm['eps_final']) moved to ε = ``eps_to`` at the same data
     by the ε homotopy (log-uniform in τ; upwards too). The result carries eps_final = eps_to."""

@@ -56,6 +56,10 @@ class Model:
                            thrust residual moves from p_T(K_f) = 0 to T = T_OT (shooting).
     homotopy 'pert' (for 'ot'): the pure OT problem at ε_f with the perturbations scaled by τ
         (unperturbed → perturbed solution, the perturbation switch of (3.3.1) on its own).
+    homotopy 'model' (for 'ot'): the pure OT problem at ε_f with the perturbing acceleration
+        blended from the force model ``prm['pert_from']`` to ``prm['pert']``,
+        a_p = (1 − τ) a_p,from + τ a_p,to (H_p is linear in a_p): a change of force model along
+        the physical path (E8: J2 → 4×4 + Moon + Sun).
     homotopy 'param' (any kind): the pure problem with problem data moved linearly from
         ``prm['path_from']`` to ``prm['path_to']`` (thrust, L0, L_f, …) — warm starts along a
         sweep or a thrust family.
@@ -114,8 +118,18 @@ def tmin_ot_delta(K, y, tau, prm):
 
 
 def _pert_weight(model, tau):
-    """τ in the LP→target blends and the perturbation-strength homotopy 'pert', 1 in the pure problems."""
-    return tau if (model.kind != "lp" and model.homotopy in ("lp", "pert")) else 1.0
+    """τ in the LP→target blends and the perturbation homotopies 'pert' and 'model', 1 in the
+    pure problems."""
+    return tau if (model.kind != "lp" and model.homotopy in ("lp", "pert", "model")) else 1.0
+
+
+def _h_perturbation(model: Model, K, x, lam, tau, prm, shift):
+    """The perturbation term of H at τ: τ-weighted H_p, plus (1 − τ) H_p of the start model in
+    the model blend 'model'."""
+    h = _pert_weight(model, tau) * hm.h_pert(K, x, lam, prm, shift)
+    if model.homotopy == "model":
+        h = h + (1.0 - tau) * hm.h_pert(K, x, lam, {**prm, "pert": prm["pert_from"]}, shift)
+    return h
 
 
 def field(model: Model, K, y, tau, prm):
@@ -124,8 +138,8 @@ def field(model: Model, K, y, tau, prm):
     g = _unperturbed_field(model, K, y, tau, prm)
     if model.perturbed:
         shift = _pert_shift(model, y, tau)
-        g = g + _pert_weight(model, tau) * hamiltonian_field(
-            lambda K_, x_, l_: hm.h_pert(K_, x_, l_, prm, shift), K, y, model.n)
+        g = g + hamiltonian_field(
+            lambda K_, x_, l_: _h_perturbation(model, K_, x_, l_, tau, prm, shift), K, y, model.n)
     return g
 
 
@@ -166,7 +180,7 @@ def hamiltonian(model: Model, K, y, tau, prm):
     h = _unperturbed_hamiltonian(model, K, y, tau, prm)
     if model.perturbed:
         n = model.n
-        h = h + _pert_weight(model, tau) * hm.h_pert(K, y[:n], y[n:], prm, _pert_shift(model, y, tau))
+        h = h + _h_perturbation(model, K, y[:n], y[n:], tau, prm, _pert_shift(model, y, tau))
     return h
 
 

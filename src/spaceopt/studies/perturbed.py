@@ -189,10 +189,11 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
                model_step_eps: float | None = None) -> Solution:
     """From a converged OT solution to the problem of ``tr_to`` (new date, model or n_rev).
 
-    Perturbed → perturbed: thrust, L₀, L_f, c and a new departure epoch move linearly in τ;
-    everything else (the force model) is the new problem's from τ = 0 on, and the Newton
-    homotopy f(z, τ) = (1 − τ) b absorbs the initial residual b; followed in τ, and in arclength where
-    the τ-path stalls (a turning point). A change of n_rev moves L_f at ε₁ through
+    Perturbed → perturbed: a new force model at the same data is reached by the model blend
+    a_p = (1 − τ) a_p,from + τ a_p,to (:func:`chain.continue_in_model`); thrust, L₀, L_f, c and a
+    new departure epoch move linearly in τ, and the Newton homotopy f(z, τ) = (1 − τ) b absorbs
+    the initial residual b; followed in τ, and in arclength where the τ-path stalls (a turning
+    point). A change of n_rev moves L_f at ε₁ through
     :func:`chain.continue_in_params_smoothed`. Unperturbed → perturbed:
     :func:`perturb_from_unperturbed`. ``eps_smooth`` (case option ``perturb_at_eps``): the
     perturbations are switched on at that ε instead of ε_f; ``model_step_eps`` (case option
@@ -224,9 +225,14 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
                                                 path="arclength")
         out.stats["warm_path"] = f"arclength at eps = {model_step_eps:g}"
     else:
-        # more revolutions add burn arcs: move L_f at the smoothing ε₁ of the blend (E8)
-        move = chain.continue_in_params if same_count else functools.partial(
-            chain.continue_in_params_smoothed, eps_smooth=tr_to.eps_blend)
+        # a new force model by the model blend; more revolutions add burn arcs: move L_f at the
+        # smoothing ε₁ of the blend (E8); a new date by the Newton homotopy in the data (E6)
+        if same_count and sol.transfer.perturbations != tr_to.perturbations:
+            move = chain.continue_in_model
+        elif same_count:
+            move = chain.continue_in_params
+        else:
+            move = functools.partial(chain.continue_in_params_smoothed, eps_smooth=tr_to.eps_blend)
         try:
             out = move(sol, prm_to, options=options, label=label)
             out.stats["warm_path"] = "tau"
