@@ -280,6 +280,40 @@ def test_force_model_step_goes_through_the_smoothing_eps(monkeypatch):
     assert calls == [("model", None, "tau", True)]
 
 
+def test_model_step_falls_back_from_the_blend_to_the_newton_homotopy(monkeypatch):
+    """warm_start J2 → 4×4 at ε_f: the model blend in τ first; where it fails, the Newton
+    homotopy in the model (τ), then the blend in arclength; the failures are recorded, and the
+    last one is raised when every path fails."""
+    import numpy as np
+
+    from spaceopt.errors import ConvergenceError
+    from spaceopt.indirect import chain
+    j2, g44 = (P.transfer_from_config(PC, "e9", m) for m in ("j2", "g44"))
+    sh = chain.shooting_for("ot", "eps", j2)
+    sol = chain.Solution("ot", sh, np.zeros(len(sh.unknown_names())), j2.params(thrust=1.0), j2, {}, thrust_N=1.0)
+    calls, ok = [], set()
+
+    def record(name):
+        def move(s, prm_to, options=None, label="", path="tau"):
+            calls.append((name, path))
+            if (name, path) not in ok:
+                raise ConvergenceError(f"{name} {path} failed", {})
+            return dataclasses.replace(s, stats={})
+        return move
+
+    monkeypatch.setattr(chain, "continue_in_model", record("blend"))
+    monkeypatch.setattr(chain, "continue_in_params", record("newton"))
+    ok.add(("newton", "tau"))
+    out = P.warm_start(sol, g44, "test")
+    assert calls == [("blend", "tau"), ("newton", "tau")]
+    assert out.stats["warm_path"] == "newton tau" and out.stats["path_failures"] == ["tau: blend tau failed"]
+    calls.clear()
+    ok.clear()
+    with pytest.raises(ConvergenceError, match="blend arclength failed"):
+        P.warm_start(sol, g44, "test")
+    assert calls == [("blend", "tau"), ("newton", "tau"), ("blend", "arclength")]
+
+
 def test_warm_start_integrates_with_the_new_problems_settings(monkeypatch):
     """Every stage of a warm start follows its path with the target transfer's path_rtol and
     step cap (E8: J2 at 1e-9 → 4×4 + Moon + Sun at the tighter rtol of the full model)."""

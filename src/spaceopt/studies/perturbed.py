@@ -193,7 +193,8 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
     a_p = (1 − τ) a_p,from + τ a_p,to (:func:`chain.continue_in_model`); thrust, L₀, L_f, c and a
     new departure epoch move linearly in τ, and the Newton homotopy f(z, τ) = (1 − τ) b absorbs
     the initial residual b; followed in τ, and in arclength where the τ-path stalls (a turning
-    point). A change of n_rev moves L_f at ε₁ through
+    point). A model step whose blend fails falls back to the Newton homotopy in the model (τ),
+    then to the blend in arclength; the failures are in ``stats['path_failures']``. A change of n_rev moves L_f at ε₁ through
     :func:`chain.continue_in_params_smoothed`. Unperturbed → perturbed:
     :func:`perturb_from_unperturbed`. ``eps_smooth`` (case option ``perturb_at_eps``): the
     perturbations are switched on at that ε instead of ε_f; ``model_step_eps`` (case option
@@ -225,20 +226,31 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
                                                 path="arclength")
         out.stats["warm_path"] = f"arclength at eps = {model_step_eps:g}"
     else:
-        # a new force model by the model blend; more revolutions add burn arcs: move L_f at the
-        # smoothing ε₁ of the blend (E8); a new date by the Newton homotopy in the data (E6)
+        # a new date by the Newton homotopy in the data (E6); more revolutions add burn arcs:
+        # move L_f at the smoothing ε₁ of the blend (E8); a new force model by the model blend,
+        # and where its end point is singular by the Newton homotopy in the model (E8: the
+        # blend converges at 200, 300, 350 rev; at 250 both its τ and arclength paths reach
+        # τ = 1 with |F| ~ 3e-5 and the polish fails, while the Newton homotopy converges)
         if same_count and sol.transfer.perturbations != tr_to.perturbations:
-            move = chain.continue_in_model
-        elif same_count:
-            move = chain.continue_in_params
+            tries = [(chain.continue_in_model, "tau", "tau"), (chain.continue_in_params, "tau", "newton tau"),
+                     (chain.continue_in_model, "arclength", "arclength")]
         else:
-            move = functools.partial(chain.continue_in_params_smoothed, eps_smooth=tr_to.eps_blend)
-        try:
-            out = move(sol, prm_to, options=options, label=label)
-            out.stats["warm_path"] = "tau"
-        except ConvergenceError as exc:
-            out = move(sol, prm_to, options=None, label=label + " (arclength)", path="arclength")
-            out.stats.update(warm_path="arclength", tau_path_failure=str(exc))
+            move = chain.continue_in_params if same_count else functools.partial(
+                chain.continue_in_params_smoothed, eps_smooth=tr_to.eps_blend)
+            tries = [(move, "tau", "tau"), (move, "arclength", "arclength")]
+        failures = []
+        for move, path, name in tries:
+            try:
+                out = move(sol, prm_to, options=options if path == "tau" else None,
+                           label=label + ("" if name == "tau" else f" ({name})"), path=path)
+                break
+            except ConvergenceError as exc:
+                if len(failures) == len(tries) - 1:
+                    raise
+                failures.append(f"{name}: {exc}")
+        out.stats["warm_path"] = name
+        if failures:
+            out.stats["path_failures"] = failures
     out.transfer, out.thrust_N = tr_to, sol.thrust_N
     return out
 
