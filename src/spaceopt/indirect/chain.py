@@ -231,6 +231,10 @@ def solve_ot_from_tmin(tmin: Solution, thrust_N: float, options=None, label="ot"
     return Solution("ot", sh_eps, z, prm, tr, stats, thrust_N=thrust_N)
 
 
+# problem data that continue_in_params moves along a path (the departure-epoch offset: E6 dates)
+PATH_DATA = ("thrust", "L0", "Lf", "c", "epoch_offset_s")
+
+
 def continue_in_params(sol: Solution, prm_to: dict, options=None, label="param", path: str = "tau") -> Solution:
     """From a converged solution to the same problem with other data (thrust, L0, L_f, …).
 
@@ -238,7 +242,7 @@ def continue_in_params(sol: Solution, prm_to: dict, options=None, label="param",
     solution's are moved linearly in τ (thrust, L0, L_f, c, and the departure-epoch offset of a
     perturbed problem when both carry one), everything else stays (``path``: 'tau' or 'arclength').
     """
-    keys = [k for k in ("thrust", "L0", "Lf", "c", "epoch_offset_s")
+    keys = [k for k in PATH_DATA
             if k in sol.prm and k in prm_to and not np.isclose(sol.prm[k], prm_to[k], rtol=0, atol=0)]
     frm = {k: sol.prm[k] for k in keys}
     prm = {**prm_to, "path_from": frm, "path_to": {k: prm_to[k] for k in keys}}
@@ -259,7 +263,7 @@ def continue_in_model(sol: Solution, prm_to: dict, options=None, label="model", 
     E8 at 300 revolutions, 4×4 → 4×4 + Moon + Sun at ε_f, the Newton homotopy folds at τ ≈ 0.35
     (113 Jacobians, docs/perturbed-e6-e7-e8.md); the blend of the Moon and Sun terms converges in 13.
     """
-    moved = [k for k in ("thrust", "L0", "Lf", "c", "eps_final", "epoch_offset_s")
+    moved = [k for k in (*PATH_DATA, "eps_final")
              if (k in sol.prm or k in prm_to) and not np.isclose(sol.prm.get(k, 0.0), prm_to.get(k, 0.0), rtol=0, atol=0)]
     if moved or sol.stage != "ot" or not sol.shooting.model.perturbed:
         raise ValueError(f"continue_in_model: a perturbed OT solution at the same data is needed (differs: {moved})")

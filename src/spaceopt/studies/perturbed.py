@@ -194,8 +194,8 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
     new departure epoch move linearly in τ, and the Newton homotopy f(z, τ) = (1 − τ) b absorbs
     the initial residual b; followed in τ, and in arclength where the τ-path stalls (a turning
     point). A model step whose blend fails falls back to the Newton homotopy in the model (τ),
-    then to the blend in arclength; the failures are in ``stats['path_failures']``. A change of n_rev moves L_f at ε₁ through
-    :func:`chain.continue_in_params_smoothed`. Unperturbed → perturbed:
+    then to the blend in arclength; the failures are in ``stats['path_failures']``. A change of
+    n_rev moves L_f at ε₁ through :func:`chain.continue_in_params_smoothed`. Unperturbed → perturbed:
     :func:`perturb_from_unperturbed`. ``eps_smooth`` (case option ``perturb_at_eps``): the
     perturbations are switched on at that ε instead of ε_f; ``model_step_eps`` (case option
     ``model_step_at_eps``): a perturbed force model is changed at that ε, in arclength
@@ -229,7 +229,7 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
         # a new date by the Newton homotopy in the data (E6); more revolutions add burn arcs:
         # move L_f at the smoothing ε₁ of the blend (E8); a new force model by the model blend,
         # and where its end point is singular by the Newton homotopy in the model (E8: the
-        # blend converges at 200, 300, 350 rev; at 250 both its τ and arclength paths reach
+        # blend converges at 200, 300-400 rev; at 250 both its τ and arclength paths reach
         # τ = 1 with |F| ~ 3e-5 and the polish fails, while the Newton homotopy converges)
         if same_count and sol.transfer.perturbations != tr_to.perturbations:
             tries = [(chain.continue_in_model, "tau", "tau"), (chain.continue_in_params, "tau", "newton tau"),
