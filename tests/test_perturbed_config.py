@@ -364,3 +364,12 @@ def test_e8_range_rows_say_which_counts_they_cover():
     assert "n_rev = 200 " in rows[("e8", "fuel_increase_max_kg")]["note"]
     assert rows[("e8_g44_moon_sun_n500", "propellant_kg")]["status"] == "missing"
     assert R.e8_range_notes(tabs, [200]) == {}
+
+
+def test_paper_section_says_how_the_e8_counts_start():
+    """The §4.2 paper text follows perturbed.e8.count_start: independent chains or n → n."""
+    chain_text = R.paper_section([], {}, None, {}, [], e8_count_start="chain")
+    previous_text = R.paper_section([], {}, None, {}, [], e8_count_start="previous")
+    assert "a chain of its own from the zero guess" in chain_text
+    assert "next smaller one" not in chain_text
+    assert "next smaller one" in previous_text

@@ -45,8 +45,8 @@ def pt_config_for(case, model):
 def pt_warm_source(case, model):
     """The first model of a case's list is solved by the chain from the zero guess; every later
     model too when the case says model_start: chain (E5, E7), else by a warm start from the
-    previous model (a Newton homotopy at the new force model, followed in arclength):
-    E9 J2 -> 4x4 -> 4x4 + Moon + Sun."""
+    previous model (studies.perturbed.warm_start: the force-model blend, its fallbacks):
+    E8 and E9 J2 -> 4x4 -> 4x4 + Moon + Sun."""
     models = PT["cases"][case]["models"]
     if model == models[0] or PT["cases"][case].get("model_start", "previous") == "chain":
         return None
@@ -135,13 +135,16 @@ E8 = PT["e8"]
 
 
 def pt_e8_source(n, model):
-    """What E8 solve (model, n) starts from. The first model of the case: the next smaller n of
-    the list (n to n), the smallest n the chain. Every later model: the previous model at the
+    """What E8 solve (model, n) starts from. The first model of the case: the chain from the zero
+    guess (perturbed.e8.count_start: chain, the default), or the next smaller n of the list
+    (previous: n to n, the smallest n the chain). Every later model: the previous model at the
     same n (perturbations switched on by τ; pt_warm_source), so the perturbed counts are
     independent jobs."""
     prev = pt_warm_source("e8", model)
     if prev is not None:
         return f"{prev}_n{_pt_fmt(n)}"
+    if E8.get("count_start", "chain") == "chain":
+        return None
     ns = sorted(float(x) for x in E8["n_rev"])
     n = float(n)
     if n not in ns or ns.index(n) == 0:
@@ -247,7 +250,7 @@ rule perturbed_paper_section:
            **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},
            _src=lib_sources("studies/perturbed_report")
     output: f"{PTDIR}/paper_section.tex"
-    params: run=PT["run"], results=RESULTS
+    params: run=PT["run"], results=RESULTS, e8_count_start=E8.get("count_start", "chain")
     log: f"{PTDIR}/logs/paper_section.log"
     script: "../scripts/perturbed_paper_section.py"
 

@@ -13,11 +13,14 @@ Chain for every (case, model) (spec 02-multirev §2.6, no published costate as a
 
 Warm starts (allowed: neighbouring *solved* cases of the same chain):
 
-* E6 date → date and E9 model → model: a Newton homotopy f(z, τ) = (1 − τ) f(z_prev) at the
-  *new* problem data (``chain.continue_in_params`` with nothing to move; the epoch and the force
-  model are pytree data of ``prm['pert']``, so the new date costs no recompilation);
-* E8 n → n: ``chain.continue_in_params_smoothed`` moving L_f at ε = ε₁ (10⁻²), where the
-  control is smooth, between an ε homotopy up from ε_f and one back down.
+* E6 date → date: a Newton homotopy f(z, τ) = (1 − τ) f(z_prev) at the *new* problem data
+  (``chain.continue_in_params`` with nothing to move; the epoch is pytree data of
+  ``prm['pert']``, so the new date costs no recompilation);
+* a new force model at the same data (E8 J2 → 4×4 + Moon + Sun, E9 J2 → 4×4 → full): the blend
+  of the perturbing accelerations (``chain.continue_in_model``), the Newton homotopy its fallback;
+* E8 n → n (config ``perturbed.e8.count_start: previous``; the default is a chain from the zero
+  guess at every count): ``chain.continue_in_params_smoothed`` moving L_f at ε = ε₁ (10⁻²),
+  where the control is smooth, between an ε homotopy up from ε_f and one back down.
 
 The ΔΩ budget of E9 (spec 02-multirev §6) is the secular J2 drift of the osculating initial
 orbit, dΩ/dt = −(3/2) n J₂ (R/p)² cos i, dω/dt = (3/4) n J₂ (R/p)² (5 cos² i − 1), compared
