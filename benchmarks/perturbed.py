@@ -82,14 +82,16 @@ def measured(results: Path) -> dict:
 
 def e8_route_times(e8: dict) -> dict:
     """Wall time of the DAG's route to each perturbed E8 solve, from the artifacts: the
-    unperturbed counts up to n (each continues from the previous one), then every later model at
-    n (each from the previous model at n). Only routes whose solves all exist."""
+    unperturbed count n (``perturbed.e8.count_start: chain``, from the zero guess) or the
+    unperturbed counts up to n (``previous``: each continues from the one before), then every
+    later model at n (each from the previous model at n). Only routes whose solves all exist."""
     pc = _perturbed_config()
     models = pc["cases"]["e8"]["models"]
     ns = sorted(float(n) for n in pc["e8"]["n_rev"])
+    chained = pc["e8"].get("count_start", "chain") == "chain"
     out = {}
     for n in ns:
-        keys = [f"{models[0]}_n{m:g}" for m in ns if m <= n]
+        keys = [f"{models[0]}_n{m:g}" for m in ns if (m == n if chained else m <= n)]
         for model in models[1:]:
             keys.append(f"{model}_n{n:g}")
             if all(k in e8 and e8[k]["wall_time_s"] for k in keys):
