@@ -85,10 +85,11 @@ def e8_route_times(e8: dict) -> dict:
     unperturbed count n (``perturbed.e8.count_start: chain``, from the zero guess) or the
     unperturbed counts up to n (``previous``: each continues from the one before), then every
     later model at n (each from the previous model at n). Only routes whose solves all exist."""
+    from spaceopt.studies.perturbed import e8_count_start
     pc = _perturbed_config()
     models = pc["cases"]["e8"]["models"]
     ns = sorted(float(n) for n in pc["e8"]["n_rev"])
-    chained = pc["e8"].get("count_start", "chain") == "chain"
+    chained = e8_count_start(pc) == "chain"
     out = {}
     for n in ns:
         keys = [f"{models[0]}_n{m:g}" for m in ns if (m == n if chained else m <= n)]

@@ -4,6 +4,7 @@ import re
 from pathlib import Path
 
 import yaml
+from spaceopt.studies import perturbed as P
 from workflow_skeleton import planned_rules, repo_snakemake as smk
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -56,7 +57,7 @@ def test_full_reproduction_plans_e6_dates_from_the_unperturbed_solve_and_e8_coun
     for n in skip.get(last, ()):
         assert f"results/perturbed/e8/{last}_n{n:g}.json" not in e8
     for m in run_models:
-        if m == models[0] and PT["e8"].get("count_start", "chain") == "chain":
+        if m == models[0] and P.e8_count_start(PT) == "chain":
             for n in ns:                             # independent chains from the zero guess
                 inputs = e8[f"results/perturbed/e8/{m}_n{n:g}.json"]
                 assert not any(i.startswith("results/perturbed/e8/") for i in inputs)

@@ -4,7 +4,7 @@
 #   results/perturbed/e8/<model>_n<n>.{json,npz,rrd}    E8 (n to n; perturbed from unperturbed at n)
 #   results/perturbed/e9_budget.json                    ΔΩ budget check (spec §6)
 #   results/perturbed/{e5,e6_date_scan,e7,e8,e9}.csv, reproduction.csv, paper_section.tex, figures/
-from spaceopt.studies.perturbed import e8_runs, scan_start_from
+from spaceopt.studies.perturbed import e8_count_start, e8_runs, scan_start_from
 
 check_section("perturbed", physical=lambda pc: (scan_start_from(pc["e6"]), e8_runs(pc)))
 PT = config["perturbed"]
@@ -46,7 +46,7 @@ def pt_warm_source(case, model):
     """The first model of a case's list is solved by the chain from the zero guess; every later
     model too when the case says model_start: chain (E5, E7), else by a warm start from the
     previous model (studies.perturbed.warm_start: the force-model blend, its fallbacks):
-    E8 and E9 J2 -> 4x4 -> 4x4 + Moon + Sun."""
+    E8 unperturbed -> J2 -> 4x4 + Moon + Sun, E9 J2 -> 4x4 -> 4x4 + Moon + Sun."""
     models = PT["cases"][case]["models"]
     if model == models[0] or PT["cases"][case].get("model_start", "previous") == "chain":
         return None
@@ -143,7 +143,7 @@ def pt_e8_source(n, model):
     prev = pt_warm_source("e8", model)
     if prev is not None:
         return f"{prev}_n{_pt_fmt(n)}"
-    if E8.get("count_start", "chain") == "chain":
+    if e8_count_start(PT) == "chain":
         return None
     ns = sorted(float(x) for x in E8["n_rev"])
     n = float(n)
@@ -250,7 +250,7 @@ rule perturbed_paper_section:
            **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},
            _src=lib_sources("studies/perturbed_report")
     output: f"{PTDIR}/paper_section.tex"
-    params: run=PT["run"], results=RESULTS, e8_count_start=E8.get("count_start", "chain")
+    params: run=PT["run"], results=RESULTS, e8_count_start=e8_count_start(PT)
     log: f"{PTDIR}/logs/paper_section.log"
     script: "../scripts/perturbed_paper_section.py"
 

@@ -398,6 +398,13 @@ def scan_start_from(e6: dict) -> dict[str, str]:
 
 # ---------------------------------------------------------------- E8 counts
 
+def e8_count_start(pc: dict) -> str:
+    """How each E8 count of the case's first model starts (``perturbed.e8.count_start``, enum
+    checked by the schema): 'chain' (the default), from the zero guess, or 'previous', from the
+    next smaller count."""
+    return pc["e8"].get("count_start", "chain")
+
+
 def e8_runs(pc: dict) -> list[tuple[str, float]]:
     """(model, n_rev) of the E8 solves the tables ask for (the solves they start from come with
     them): ``perturbed.e8.run_models`` (default: the case's models) × ``run_n_rev``, less the
