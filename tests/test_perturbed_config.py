@@ -166,8 +166,13 @@ def test_arclength_passes_a_fold_in_tau():
     assert z[0] == pytest.approx(2.1958233, abs=1e-6)
     assert arc.stats.steps > 3 and min(h["tau"] for h in arc.stats.history[3:]) < 0.5   # went back
     cont = Continuation(ev, ContinuationOptions(verbose=False))
-    with pytest.raises(ConvergenceError):
+    with pytest.raises(ConvergenceError, match="step size underflow") as err:
         cont.run(np.array([-2.0]))
+    # every rejected step is in the diagnosis with the corrector's |F| sequence and why it gave up
+    rejected = [h["rejected"] for h in err.value.diagnosis["history"] if "rejected" in h]
+    assert len(rejected) == cont.stats.rejected or len(err.value.diagnosis["history"]) == 20
+    assert rejected and all(r.startswith("|F| ") for r in rejected)
+    assert all(r.endswith(("not contracting", "propagation failed", "after 4 iterations")) for r in rejected)
 
 
 def test_arclength_gives_up_a_path_that_runs_back_below_the_floor():

@@ -139,9 +139,8 @@ class Continuation:
                 self._log(f"tau={tau:.6f} h={h:.3g} corr={iters} |F|={nF:.2e} jac={self.stats.jacobians}")
                 h = min(opt.h_max * abs(span), h * {1: 2.0, 2: 1.5, 3: 1.2}.get(iters, 0.8))
             else:
-                self.stats.rejected += 1
+                self._reject(tau, h)
                 h *= 0.3
-                self._log(f"  rejected at tau={tau:.6f}, h -> {h:.3g}")
                 if h < opt.h_min * abs(span):
                     raise self._diagnose("step size underflow", z, tau, h, F)
         # final polish at τ₁ (re-evaluated with the polishing tolerances)
@@ -150,27 +149,40 @@ class Continuation:
             F = f
         return self._polish(z, J, F, tau1, h, t_start, _solve, "done")
 
+    def _reject(self, tau, h):
+        """Count a rejected step from τ with step h; log and record why the corrector gave up."""
+        self.stats.rejected += 1
+        self.stats.history.append({"tau": tau, "h": h, "rejected": self.last_rejection})
+        self._log(f"  rejected at tau={tau:.6f}, h {h:.3g} -> {0.3 * h:.3g} ({self.last_rejection})")
+
     def _correct(self, x, residual, newton_step):
         """The Newton corrector of both followers: x <- newton_step(x, F, ev) until |F| <= tol_step.
 
         ``residual(x)`` gives (F, ev), or None when the propagation failed; ``ev`` is the evaluation
         at x that ``newton_step`` and the caller use. Gives up when an evaluation fails or |F| does
-        not at least halve. Returns (accepted, x, F, ev, |F|, iterations).
+        not at least halve. Returns (accepted, x, F, ev, |F|, iterations); on a rejection the
+        reason (the |F| sequence and why the corrector gave up) is kept in ``last_rejection``
+        for the log and the diagnosis history.
         """
         prev = F = ev = nF = None
+        norms, why = [], f"|F| > {self.opt.tol_step:g} after {self.opt.max_corrector} iterations"
         iters = 0
         for iters in range(1, self.opt.max_corrector + 1):
             out = residual(x)
             if out is None:
+                why = "propagation failed"
                 break
             F, ev = out
             nF = _norm(F)
+            norms.append(nF)
             if nF <= self.opt.tol_step:
                 return True, x, F, ev, nF, iters
             if prev is not None and nF > 0.5 * prev:
+                why = "not contracting"
                 break
             prev = nF
             x = newton_step(x, F, ev)
+        self.last_rejection = f"|F| {' -> '.join(f'{v:.2e}' for v in norms) or '-'}: {why}"
         return False, x, F, ev, nF, iters
 
     def _polish(self, z, J, F, tau, h, t_start, solve, tag):
@@ -259,9 +271,8 @@ class ArclengthContinuation(Continuation):
 
             accepted, uc, Fc, ev, nF, iters = self._correct(up.copy(), residual, newton_step)
             if not accepted:
-                self.stats.rejected += 1
+                self._reject(tau, h)
                 h *= 0.3
-                self._log(f"  rejected at tau={tau:.6f}, h -> {h:.3g}")
                 if h < opt.h_min:
                     raise self._diagnose("step size underflow", z, tau, h, F)
                 continue
