@@ -372,9 +372,19 @@ def test_e8_range_rows_say_which_counts_they_cover():
 
 
 def test_paper_section_says_how_the_e8_counts_start():
-    """The §4.2 paper text follows perturbed.e8.count_start: independent chains or n → n."""
-    chain_text = R.paper_section([], {}, None, {}, [], e8_count_start="chain")
-    previous_text = R.paper_section([], {}, None, {}, [], e8_count_start="previous")
+    """The §4.2 paper text follows perturbed.e8.count_start (independent chains or n → n) and
+    writes the ε values of the E8 route from the config."""
+    smoothing = P.e8_smoothing(PC)
+    assert smoothing["eps_final"] == PC["numerics"]["eps_final"]
+    assert smoothing["perturb_at_eps"] == PC["cases"]["e8"]["perturb_at_eps"]
+    assert smoothing["model_step_at_eps"] == smoothing["eps_final"]       # E8 names none
+    chain_text = R.paper_section([], {}, None, {}, [], e8_count_start="chain", smoothing=smoothing)
+    previous_text = R.paper_section([], {}, None, {}, [], e8_count_start="previous", smoothing=smoothing)
     assert "a chain of its own from the zero guess" in chain_text
     assert "next smaller one" not in chain_text
     assert "next smaller one" in previous_text
+    assert r"$J_2$ switched on at $\varepsilon=10^{-2}$" in chain_text
+    assert r"smoothing stage to $\varepsilon_f=10^{-5}$" in chain_text
+    other = {**smoothing, "perturb_at_eps": 3e-2, "eps_blend": 5e-3}
+    assert r"switched on at $\varepsilon=3\cdot10^{-2}$" in R.e8_route_text("chain", other)
+    assert r"smoothing $\varepsilon=5\cdot10^{-3}$" in R.e8_route_text("previous", other)

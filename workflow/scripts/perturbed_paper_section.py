@@ -29,7 +29,8 @@ def main(sm):
     unp = next((r for r in e6 if r["model"] == "unperturbed"), None)
     e6sum = R.e6_summary(e6, unp)
     Path(sm.output[0]).write_text(R.paper_section(rows, {}, budget, e6sum, list(sm.input.figures),
-                                                       e8_count_start=sm.params.e8_count_start))
+                                                  e8_count_start=sm.params.e8_count_start,
+                                                  smoothing=sm.params.e8_smoothing))
 
 
 if __name__ == "__main__":

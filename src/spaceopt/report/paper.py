@@ -40,6 +40,16 @@ def latex_escape(text) -> str:
     return "".join(_UNICODE.get(ch, ch) for ch in s)
 
 
+def latex_number(x: float) -> str:
+    """A positive number in LaTeX math: 1e-2 → ``10^{-2}``, 3e-2 → ``3\\cdot10^{-2}``, 0.5 → ``0.5``
+    (powers of ten below 0.1 and from 10⁴)."""
+    mant, exp = f"{float(x):.6e}".split("e")
+    mant, exp = f"{float(mant):g}", int(exp)
+    if -1 <= exp <= 3:
+        return f"{float(x):g}"
+    return (f"{mant}\\cdot" if mant != "1" else "") + f"10^{{{exp}}}"
+
+
 def breakable(tex: str) -> str:
     """Allow line breaks after the underscores, slashes and commas of identifiers, paths, lists."""
     return tex.replace(r"\_", r"\_\allowbreak{}").replace("/", r"/\allowbreak{}").replace(",", r",\allowbreak{}")

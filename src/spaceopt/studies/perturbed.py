@@ -405,6 +405,17 @@ def e8_count_start(pc: dict) -> str:
     return pc["e8"].get("count_start", "chain")
 
 
+def e8_smoothing(pc: dict) -> dict:
+    """The smoothing ε values the E8 route uses, for the report text: ``eps_final``, ``eps_blend``
+    (where a count moved from the previous one is moved), ``perturb_at_eps`` (J2 switched on) and
+    ``model_step_at_eps`` (the force model changed), the last two ε_f where the case leaves them out."""
+    eps_f = float(pc["numerics"]["eps_final"])
+    return {"eps_final": eps_f, "eps_blend": float(pc["numerics"]["eps_blend"]),
+            **{key: eps if eps is not None else eps_f
+               for key, eps in (("perturb_at_eps", perturb_at_eps(pc, "e8")),
+                                ("model_step_at_eps", perturb_at_eps(pc, "e8", "model_step_at_eps")))}}
+
+
 def e8_runs(pc: dict) -> list[tuple[str, float]]:
     """(model, n_rev) of the E8 solves the tables ask for (the solves they start from come with
     them): ``perturbed.e8.run_models`` (default: the case's models) × ``run_n_rev``, less the

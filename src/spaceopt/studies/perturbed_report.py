@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..report import compare
-from ..report.paper import latex_escape
+from ..report.paper import latex_escape, latex_number
 from .perturbed import summary
 
 COLUMNS = {
@@ -304,19 +304,29 @@ def latex(tabs: dict) -> str:
     return "\n".join(out) + "\n"
 
 
-E8_COUNT_START = {
-    "chain": "Each revolution count of the GTO$\\to$GEO series is a chain of its own from the zero "
-             "guess, so the counts are independent solves. ",
-    "previous": "Each revolution count of the GTO$\\to$GEO series starts from the next smaller one, the "
-                "angular range being moved at the smoothing $\\varepsilon=10^{-2}$ between an "
-                "$\\varepsilon$ homotopy up and one back down (moved at $\\varepsilon_f$ the path "
-                "crawls as burn arcs appear). "}
+def e8_route_text(count_start: str, smoothing: dict) -> str:
+    """The sentences on how the E8 counts and models start (``count_start``: the config's
+    perturbed.e8.count_start; ``smoothing``: :func:`perturbed.e8_smoothing`, the ε values)."""
+    eps = {k: latex_number(v) for k, v in smoothing.items()}
+
+    def at(key):
+        return r"$\varepsilon_f$" if smoothing[key] == smoothing["eps_final"] else f"$\\varepsilon={eps[key]}$"
+    counts = {
+        "chain": "Each revolution count of the GTO$\\to$GEO series is a chain of its own from the zero "
+                 "guess, so the counts are independent solves. ",
+        "previous": "Each revolution count of the GTO$\\to$GEO series starts from the next smaller one, "
+                    f"the angular range being moved at the smoothing $\\varepsilon={eps['eps_blend']}$ "
+                    "between an $\\varepsilon$ homotopy up and one back down (moved at $\\varepsilon_f$ "
+                    "the path crawls as burn arcs appear). "}[count_start]
+    return (counts + f"The perturbed counts start from the unperturbed one, $J_2$ switched on at "
+            f"{at('perturb_at_eps')}, then the force model changed at {at('model_step_at_eps')} by "
+            "blending the perturbing accelerations. ")
 
 
-def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figures: list,
-                  resultsdir_macro=r"\resultsdir", e8_count_start: str = "chain") -> str:
-    """LaTeX fragment of the §4.2 section; every number comes from the artifacts.
-    ``e8_count_start``: the config's perturbed.e8.count_start (how each E8 count starts)."""
+def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figures: list, *,
+                  e8_count_start: str, smoothing: dict, resultsdir_macro=r"\resultsdir") -> str:
+    """LaTeX fragment of the §4.2 section; every number comes from the artifacts or the config.
+    ``e8_count_start``, ``smoothing``: how each E8 count and model starts (:func:`e8_route_text`)."""
     n_pass = sum(r["status"] == "pass" for r in rows)
     n_fail = sum(r["status"] == "fail" for r in rows)
     n_miss = sum(r["status"] == "missing" for r in rows)
@@ -324,17 +334,15 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
              "Each chain starts from the zero guess with the minimum-power (LP) solve. The minimum-fuel "
              r"solution is reached either by the LP $\to$ minimum-fuel homotopy (3.3.1), which also switches "
              r"the perturbations on, or (E5) through the minimum-thrust solution and a $T_{min}\to$ "
-             r"minimum-fuel homotopy, then a log-uniform smoothing stage to $\varepsilon_f=10^{-5}$. "
+             r"minimum-fuel homotopy, then a log-uniform smoothing stage to "
+             f"$\\varepsilon_f={latex_number(smoothing['eps_final'])}$. "
              "Where the zero-guess chain of a perturbed case does not converge, the run warm-starts from "
              "our unperturbed extremal by a homotopy in the perturbation strength and says so in its "
              "artifact and its reproduction notes; the 4$\\times$4 LEO runs start from the $J_2$ solution "
              "(the perturbing accelerations of the two models blended). Each departure date of the scan starts from the "
              "unperturbed extremal in the same way, so every date is an independent solve. "
-             + E8_COUNT_START[e8_count_start]
-             + "The perturbed counts start from the unperturbed one, $J_2$ switched on at "
-             "$\\varepsilon=10^{-2}$, then the force model changed at $\\varepsilon_f$ by blending the "
-             "perturbing accelerations. "
-             f"Of the reproduction rows, {n_pass} pass, {n_fail} fail "
+             + e8_route_text(e8_count_start, smoothing)
+             + f"Of the reproduction rows, {n_pass} pass, {n_fail} fail "
              f"and {n_miss} were not produced in this run (Table~\\ref{{tab:scoreboard}}).", ""]
     if budget:
         g = budget["egm96_gm"]
