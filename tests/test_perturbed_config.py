@@ -173,6 +173,8 @@ def test_arclength_passes_a_fold_in_tau():
     assert len(rejected) == cont.stats.rejected or len(err.value.diagnosis["history"]) == 20
     assert rejected and all(r.startswith("|F| ") for r in rejected)
     assert all(r.endswith(("not contracting", "propagation failed", "after 4 iterations")) for r in rejected)
+    tangents = [h["tangent"] for h in cont.stats.history if "tangent" in h]
+    assert tangents[-1] > 10 * tangents[0]          # |dz/dτ| blows up towards the fold at τ = 2/3
 
 
 def test_arclength_gives_up_a_path_that_runs_back_below_the_floor():

@@ -135,8 +135,11 @@ class Continuation:
                 # residual drops quadratically and the next corrector re-checks it anyway
                 z, tau, f, J, ftau, F = zt + _solve(Jt, -Ft), tt, ft, Jt, fttau, Ft
                 self.stats.steps += 1
-                self.stats.history.append({"tau": tau, "h": h, "iters": iters, "residual": nF})
-                self._log(f"tau={tau:.6f} h={h:.3g} corr={iters} |F|={nF:.2e} jac={self.stats.jacobians}")
+                # |dz/dτ| of the step's predictor grows without bound towards a fold in τ
+                self.stats.history.append({"tau": tau, "h": h, "iters": iters, "residual": nF,
+                                           "tangent": _norm(dz)})
+                self._log(f"tau={tau:.6f} h={h:.3g} corr={iters} |F|={nF:.2e} |dz/dtau|={_norm(dz):.2e} "
+                          f"jac={self.stats.jacobians}")
                 h = min(opt.h_max * abs(span), h * {1: 2.0, 2: 1.5, 3: 1.2}.get(iters, 0.8))
             else:
                 self._reject(tau, h)
