@@ -177,6 +177,37 @@ def test_arclength_passes_a_fold_in_tau():
     assert tangents[-1] > 10 * tangents[0]          # |dz/dτ| blows up towards the fold at τ = 2/3
 
 
+def test_residual_step_growth_follows_a_path_with_a_small_newton_basin():
+    """f = 1e-4 atan(c (z − sin(5τ)/5)): Newton diverges from |c (z − z*)| > 1.39, about where
+    |f| passes tol_step, as on the E8 lunisolar blend (accepted only when the predictor lands
+    within tol_step). Growing the step by the predicted residual and capping it below the last
+    rejected step needs fewer evaluations, and at c = 1e3 it converges where the iteration-count
+    rule underflows."""
+    import numpy as np
+    from spaceopt.errors import ConvergenceError
+    from spaceopt.indirect.continuation import Continuation, ContinuationOptions
+
+    def follower(c, growth):
+        def ev(z, tau):
+            u = c * (z[0] - np.sin(5 * tau) / 5)
+            d = 1e-4 * c / (1 + u * u)
+            return np.array([1e-4 * np.arctan(u)]), np.array([[d]]), np.array([-d * np.cos(5 * tau)]), 0, True
+        return Continuation(ev, ContinuationOptions(verbose=False, step_growth=growth))
+
+    by_iterations, by_residual = follower(300.0, "iterations"), follower(300.0, "residual")
+    for cont in (by_iterations, by_residual):
+        z, _ = cont.run(np.array([0.0]))
+        assert z[0] == pytest.approx(np.sin(5.0) / 5, abs=1e-8)
+    assert by_residual.stats.rejected <= 2 < by_iterations.stats.rejected
+    assert by_residual.stats.jacobians < 0.8 * by_iterations.stats.jacobians
+    with pytest.raises(ConvergenceError, match="step size underflow"):
+        follower(1e3, "iterations").run(np.array([0.0]))
+    z, _ = follower(1e3, "residual").run(np.array([0.0]))
+    assert z[0] == pytest.approx(np.sin(5.0) / 5, abs=1e-8)
+    with pytest.raises(ValueError, match="step_growth"):
+        Continuation(lambda z, t: None, ContinuationOptions(step_growth="fast"))
+
+
 def test_arclength_gives_up_a_path_that_runs_back_below_the_floor():
     """z² + 1 = 2(1 − τ) from z = 1 has no root at τ = 1: the path folds at τ = ½ (z = 0) and runs
     back towards τ → −∞; the follower stops below ``tau_floor`` with a diagnosis, not at max_steps."""
