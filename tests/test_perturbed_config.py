@@ -290,6 +290,17 @@ def test_perturb_at_eps_is_read_and_checked():
         P.perturb_at_eps(bad, "e7", "model_step_at_eps")
 
 
+
+def test_warm_start_options_follow_the_case_step_growth():
+    assert P.warm_start_options(PC, "e9") is None
+    pc = copy.deepcopy(PC)
+    pc["cases"]["e9"]["warm_step_growth"] = "residual"
+    assert P.warm_start_options(pc, "e9").step_growth == "residual"
+    pc["cases"]["e9"]["warm_step_growth"] = "fast"
+    with pytest.raises(ConfigError, match=r"perturbed\.cases\.e9\.warm_step_growth"):
+        P.warm_start_options(pc, "e9")
+
+
 def test_force_model_step_goes_through_the_smoothing_eps(monkeypatch):
     """warm_start J2 → 4×4 with model_step_eps: the model step is done at that ε, in arclength
     (E7's route); without it, at ε_f by the model blend (E8's, E9's)."""

@@ -25,8 +25,9 @@ def main(sm):
     label = f"{case}/{model}" + (f"/{kw['epoch_utc'][:10]}" if "epoch_utc" in kw else "") + \
         (f"/n{kw['n_rev']:g}" if "n_rev" in kw else "")
     # perturbations switched on / the force model changed at a larger smoothing ε than ε_f
-    # (case options perturb_at_eps, model_step_at_eps)
-    eps_kw = P.warm_start_eps(cfg, case)
+    # (case options perturb_at_eps, model_step_at_eps), and the continuation step rule
+    # (warm_step_growth)
+    eps_kw = {**P.warm_start_eps(cfg, case), "options": P.warm_start_options(cfg, case)}
     t0 = time.perf_counter()
     artifacts.clear_failures(out)
 

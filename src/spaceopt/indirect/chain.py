@@ -93,20 +93,17 @@ PATHS = {"tau": Continuation, "arclength": ArclengthContinuation}
 def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None, path: str = "tau"):
     """Follow the Newton homotopy of ``sh`` from z0 (τ = 0) to τ = 1, in τ or in arclength.
 
-    ``options`` of the wrong kind for the path are re-typed keeping only the label, so that the
-    arclength path gets its own step defaults (:class:`~.continuation.ArclengthOptions`).
+    ``options`` of the wrong kind for the path are re-typed keeping only the label, ``verbose``
+    and ``step_growth``, so that the arclength path gets its own step sizes
+    (:class:`~.continuation.ArclengthOptions`).
     """
     if path not in PATHS:
         raise ValueError(f"homotopy path {path!r}: expected one of {sorted(PATHS)}")
     cls = PATHS[path]
-    if path == "tau":
-        opt = ContinuationOptions() if options is None or isinstance(options, ArclengthOptions) else options
-        opt = ContinuationOptions(**{**opt.__dict__, "label": label,
-                                     **({"verbose": options.verbose} if options is not None else {})})
-    else:
-        opt = options if isinstance(options, ArclengthOptions) else ArclengthOptions()
-        opt = ArclengthOptions(**{**opt.__dict__, "label": label,
-                                  **({"verbose": options.verbose} if options is not None else {})})
+    kind = ContinuationOptions if path == "tau" else ArclengthOptions
+    own = options is not None and (isinstance(options, ArclengthOptions) == (path != "tau"))
+    kept = {} if options is None else {"verbose": options.verbose, "step_growth": options.step_growth}
+    opt = kind(**{**(options.__dict__ if own else kind().__dict__), **kept, "label": label})
     rtol, atol = max(sh.rtol, sh.path_rtol), max(sh.atol, sh.path_rtol * 0.1)
     cont = cls(lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm, rtol, atol), opt,
                polish=lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm))

@@ -41,7 +41,7 @@ from ..errors import ConfigError, ConvergenceError
 from ..indirect import chain
 from ..indirect import hamiltonians as hm
 from ..indirect.chain import Solution
-from ..indirect.continuation import ContinuationOptions
+from ..indirect.continuation import GROWTH, ContinuationOptions
 from ..indirect.shooting import Shooting
 from ..indirect.transfer import MAX_STEPS, PATH_RTOL, Orbit, Transfer, step_cap
 from . import multirev
@@ -53,7 +53,7 @@ ANGLE_KEYS = ("i_deg", "raan_deg", "argp_deg")
 CASE_KEYS = ("initial", "final", "L0_deg", "n_rev", "m0_kg", "isp_s", "thrust_N", "epoch_utc",
              "ephemeris", "models")
 OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref", "route", "model_start", "fallback",
-                      "perturb_at_eps", "model_step_at_eps", "path_rtol")
+                      "perturb_at_eps", "model_step_at_eps", "path_rtol", "warm_step_growth")
 
 
 def _number(cfg, key, path, positive=False):
@@ -203,12 +203,14 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
     perturbations are switched on at that ε instead of ε_f; ``model_step_eps`` (case option
     ``model_step_at_eps``): a perturbed force model is changed at that ε, in arclength
     (E7: unperturbed → J2 → 4×4 + Moon + Sun, both at ε = 10⁻²; E8: J2 on at 10⁻², the model
-    step at ε_f). The path used is in ``stats['warm_path']``.
+    step at ε_f). ``options``: continuation options of every stage (their ``step_growth`` reaches
+    the arclength paths too; case option ``warm_step_growth``, :func:`warm_start_options`). The
+    path used is in ``stats['warm_path']``.
     """
     if sol.transfer.perturbed and not tr_to.perturbed:
         raise ConfigError("warm_start", tr_to.perturbations, "cannot warm-start an unperturbed problem from a perturbed one")
     if not sol.transfer.perturbed and tr_to.perturbed:
-        return perturb_from_unperturbed(sol, tr_to, label, eps_smooth=eps_smooth)
+        return perturb_from_unperturbed(sol, tr_to, label, eps_smooth=eps_smooth, options=options)
     # every stage integrates with the new problem's settings (path rtol, step cap), not the
     # start's: E8 J2 → 4×4 + Moon + Sun needs the full model's tighter path_rtol
     sol = dataclasses.replace(sol, shooting=dataclasses.replace(sol.shooting, **tr_to.integration()),
@@ -225,8 +227,8 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
     if same_count and model_step_eps is not None and sol.transfer.perturbations != tr_to.perturbations:
         # new force model at a larger smoothing ε, followed in arclength (E7: J2 → 4×4 + Moon +
         # Sun; at ε_f its path stalls at τ 0.08)
-        out = chain.continue_in_params_smoothed(sol, prm_to, eps_smooth=model_step_eps, label=label,
-                                                path="arclength")
+        out = chain.continue_in_params_smoothed(sol, prm_to, eps_smooth=model_step_eps, options=options,
+                                                label=label, path="arclength")
         out.stats["warm_path"] = f"arclength at eps = {model_step_eps:g}"
     else:
         # a new date by the Newton homotopy in the data (E6); more revolutions add burn arcs:
@@ -244,7 +246,7 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
         failures = []
         for move, path, name in tries:
             try:
-                out = move(sol, prm_to, options=options if path == "tau" else None,
+                out = move(sol, prm_to, options=options,
                            label=label + ("" if name == "tau" else f" ({name})"), path=path)
                 break
             except ConvergenceError as exc:
@@ -275,6 +277,18 @@ def warm_start_eps(pc: dict, case: str) -> dict:
     """The ε keyword arguments of :func:`warm_start` from the case options ``perturb_at_eps``
     and ``model_step_at_eps`` (each checked by :func:`perturb_at_eps`)."""
     return {"eps_smooth": perturb_at_eps(pc, case), "model_step_eps": perturb_at_eps(pc, case, "model_step_at_eps")}
+
+
+def warm_start_options(pc: dict, case: str) -> ContinuationOptions | None:
+    """Continuation options of the case's warm starts (:func:`warm_start`): case option
+    ``warm_step_growth`` ('iterations' | 'residual', :mod:`spaceopt.indirect.continuation`),
+    None (the followers' defaults) where the case leaves it out."""
+    growth = pc["cases"][case].get("warm_step_growth")
+    if growth is None:
+        return None
+    if growth not in GROWTH:
+        raise ConfigError(f"perturbed.cases.{case}.warm_step_growth", growth, f"expected one of {', '.join(GROWTH)}")
+    return ContinuationOptions(step_growth=growth)
 
 
 def perturbation_switch(tr: Transfer) -> Shooting:
