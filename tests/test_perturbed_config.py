@@ -182,17 +182,17 @@ def test_residual_step_growth_follows_a_path_with_a_small_newton_basin():
     |f| passes tol_step, as on the E8 lunisolar blend (accepted only when the predictor lands
     within tol_step). Growing the step by the predicted residual and capping it below the last
     rejected step needs fewer evaluations, and at c = 1e3 it converges where the iteration-count
-    rule underflows."""
+    rule underflows; so does a damped corrector (``max_backtracks``)."""
     import numpy as np
     from spaceopt.errors import ConvergenceError
     from spaceopt.indirect.continuation import Continuation, ContinuationOptions
 
-    def follower(c, growth):
+    def follower(c, growth, backtracks=0):
         def ev(z, tau):
             u = c * (z[0] - np.sin(5 * tau) / 5)
             d = 1e-4 * c / (1 + u * u)
             return np.array([1e-4 * np.arctan(u)]), np.array([[d]]), np.array([-d * np.cos(5 * tau)]), 0, True
-        return Continuation(ev, ContinuationOptions(verbose=False, step_growth=growth))
+        return Continuation(ev, ContinuationOptions(verbose=False, step_growth=growth, max_backtracks=backtracks))
 
     by_iterations, by_residual = follower(300.0, "iterations"), follower(300.0, "residual")
     for cont in (by_iterations, by_residual):
@@ -204,6 +204,12 @@ def test_residual_step_growth_follows_a_path_with_a_small_newton_basin():
         follower(1e3, "iterations").run(np.array([0.0]))
     z, _ = follower(1e3, "residual").run(np.array([0.0]))
     assert z[0] == pytest.approx(np.sin(5.0) / 5, abs=1e-8)
+    # the damped corrector (halving the Newton step where it does not contract) rescues the
+    # iteration-count rule there too
+    damped = follower(1e3, "iterations", backtracks=3)
+    z, _ = damped.run(np.array([0.0]))
+    assert z[0] == pytest.approx(np.sin(5.0) / 5, abs=1e-8)
+    assert damped.stats.steps > 10
     with pytest.raises(ValueError, match="step_growth"):
         Continuation(lambda z, t: None, ContinuationOptions(step_growth="fast"))
 

@@ -20,7 +20,9 @@ accepted step grows by a factor that depends on the iterations used (``step_grow
 by (½ tol_step / |F_pred|)^{1/4} within [0.8, 2], where |F_pred| is the residual at the predicted
 point (a predictor error growing like h⁴: E8 450 rev, 4×4 → + Moon, it went from 2e-5 at h to
 3e-4 at 2h, where Newton diverged), and never beyond 0.8 of the last rejected step, a cap that
-relaxes by ×1.2 per accepted step. At τ₁ a final Newton polish reaches ``tol_final``. Written by hand because the corrector-driven step control and the reuse of the
+relaxes by ×1.2 per accepted step. ``max_backtracks`` > 0 damps the corrector: a Newton step
+that does not halve |F| is halved along its direction before the step is rejected
+(:meth:`Continuation._correct`). At τ₁ a final Newton polish reaches ``tol_final``. Written by hand because the corrector-driven step control and the reuse of the
 propagated Jacobian have no counterpart in optimistix/diffrax (which integrate or solve, not both).
 """
 from __future__ import annotations
@@ -47,6 +49,7 @@ class ContinuationOptions:
     verbose: bool = True
     label: str = ""
     step_growth: str = "iterations"     # or 'residual' (module docstring)
+    max_backtracks: int = 0             # damped Newton in the corrector (Continuation._correct)
 
 
 @dataclass
@@ -188,31 +191,45 @@ class Continuation:
         """The Newton corrector of both followers: x <- newton_step(x, F, ev) until |F| <= tol_step.
 
         ``residual(x)`` gives (F, ev), or None when the propagation failed; ``ev`` is the evaluation
-        at x that ``newton_step`` and the caller use. Gives up when an evaluation fails or |F| does
-        not at least halve. Returns (accepted, x, F, ev, |F|, iterations); on a rejection the
-        reason (the |F| sequence and why the corrector gave up) is kept in ``last_rejection``
-        for the log and the diagnosis history.
+        at x that ``newton_step`` and the caller use. A Newton step must at least halve |F|; where
+        it does not (or its propagation fails), up to ``max_backtracks`` times the step is halved
+        along the same Newton direction, and such a damped point must bring |F| below
+        (1 − α/2) of the last (Armijo-like, α the step fraction); then full Newton steps resume.
+        Gives up after ``max_corrector`` Newton steps or when no trial contracts. Returns
+        (accepted, x, F, ev, |F|, evaluations); on a rejection the reason (the |F| sequence and
+        why the corrector gave up) is kept in ``last_rejection`` for the log and the diagnosis.
         """
-        prev = F = ev = nF = None
-        norms, why = [], f"|F| > {self.opt.tol_step:g} after {self.opt.max_corrector} iterations"
-        iters = 0
-        for iters in range(1, self.opt.max_corrector + 1):
+        opt = self.opt
+        prev = F = ev = nF = x_prev = d = None
+        norms, why = [], f"|F| > {opt.tol_step:g} after {opt.max_corrector} iterations"
+        evals = newton_steps = backtracks = 0
+        alpha = 1.0
+        while True:
+            evals += 1
             out = residual(x)
-            if out is None:
-                why = "propagation failed"
+            if out is not None:
+                F, ev = out
+                nF = _norm(F)
+                norms.append(nF)
+                if nF <= opt.tol_step:
+                    return True, x, F, ev, nF, evals
+            if out is None or (prev is not None and nF > (0.5 if alpha == 1.0 else 1.0 - alpha / 2) * prev):
+                if prev is None or backtracks >= opt.max_backtracks:
+                    why = "propagation failed" if out is None else "not contracting"
+                    break
+                backtracks += 1
+                alpha *= 0.5
+                norms.append(f"(step x{alpha:g})")
+                x = x_prev + alpha * d
+                continue
+            if newton_steps + 1 >= opt.max_corrector:       # max_corrector full-step evaluations
                 break
-            F, ev = out
-            nF = _norm(F)
-            norms.append(nF)
-            if nF <= self.opt.tol_step:
-                return True, x, F, ev, nF, iters
-            if prev is not None and nF > 0.5 * prev:
-                why = "not contracting"
-                break
-            prev = nF
-            x = newton_step(x, F, ev)
-        self.last_rejection = f"|F| {' -> '.join(f'{v:.2e}' for v in norms) or '-'}: {why}"
-        return False, x, F, ev, nF, iters
+            prev, x_prev, alpha = nF, x, 1.0
+            d = newton_step(x, F, ev) - x
+            x = x + d
+            newton_steps += 1
+        self.last_rejection = f"|F| {' -> '.join(v if isinstance(v, str) else f'{v:.2e}' for v in norms) or '-'}: {why}"
+        return False, x, F, ev, nF, evals
 
     def _polish(self, z, J, F, tau, h, t_start, solve, tag):
         """Final Newton iterations at τ (polishing tolerances) while |F| > tol_final and it does not
