@@ -181,6 +181,21 @@ def test_j2_pole_is_frozen_cip_not_icrs_z():
     assert 1e-6 < abs(a[2] / a[0]) < 1e-2 and abs(a_icrs_pole[2]) == 0.0
 
 
+def test_j2_about_the_frozen_pole_equals_the_rotated_earth_fixed_form():
+    """acceleration_terms evaluates J2 in ICRS about NPB's third row; the same as rotating r to
+    the Earth-fixed frame, the printed formula, and back, at any Earth angle; no t-dependence."""
+    m = Fo.build_model({"geopotential": "j2"}, EPOCH)
+    for r in _points(4, seed=11):
+        for dt in (0.0, 3.3e4, 2.0e6):
+            t = m.epoch + dt
+            theta = Fo.earth_angle(t, m.rot)
+            rotated = Fo.to_icrs(Fo.j2_acceleration(Fo.to_itrs(r, theta, m.rot), m.gm, m.j2, m.radius),
+                                 theta, m.rot)
+            a = np.asarray(Fo.perturbing_acceleration(r, t, m))
+            assert np.allclose(a, rotated, rtol=1e-13, atol=1e-15 * np.linalg.norm(a))
+    assert np.all(np.asarray(jax.jacfwd(Fo.perturbing_acceleration, argnums=1)(r, m.epoch, m)) == 0.0)
+
+
 def test_jacobians_ad_vs_finite_differences(full):
     f = jax.jit(Fo.perturbing_acceleration)
     t = full.epoch + 2.0e5

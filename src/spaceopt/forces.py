@@ -27,7 +27,8 @@ independent check of the values is documented.
 
 J2 only (lunar chapter, spec/01-methods.md §1.7, thesis §5.1.1):
     a_J2 = (3/2) mu J2 Re^2 / r^5 ((5 z^2/r^2 - 1) x, (5 z^2/r^2 - 1) y, (5 z^2/r^2 - 3) z)
-in the Earth-fixed frame (pole = frozen CIP of t0, like the geopotential). ERRATUM: the thesis
+in the Earth-fixed frame (pole = frozen CIP of t0, like the geopotential); being axisymmetric it
+is evaluated in ICRS about that pole, with no Earth rotation angle (``j2_acceleration(pole=)``). ERRATUM: the thesis
 prints a factor 1/2 instead of 3/2 and a z-component 5(z^2/r^2 - 3) z; the formula above is the
 gradient of U_J2 = -mu J2 Re^2 (3 z^2/r^2 - 1)/(2 r^3) (checked in the tests against jax.grad
 and against the 4x4 model restricted to C20). The thesis does not give J2, Re or mu; this module
@@ -169,16 +170,22 @@ def j2_potential(r, mu, j2, radius):
     return -mu * j2 * radius ** 2 * (3.0 * r[2] ** 2 / r2 - 1.0) / (2.0 * rn ** 3)
 
 
-def j2_acceleration(r, mu, j2, radius):
+def j2_acceleration(r, mu, j2, radius, pole=None):
     """Closed-form J2 acceleration [m/s^2] (corrected thesis §5.1.1 formula; see ERRATUM above).
 
     This is the physics model as printed (corrected), not a derivative of another model; the
-    tests check it equals jax.grad(j2_potential).
+    tests check it equals jax.grad(j2_potential). ``pole``: unit vector of the Earth's axis in
+    the frame of r (default e_z, r Earth-fixed). J2 is axisymmetric, so with z = pole·r the
+    printed formula reads a = k ((5 z²/r² − 1) r − 2 z pole) in any frame: in ICRS with the
+    frozen pole no Earth rotation angle is needed (the model's t-dependence drops out).
     """
     r2 = jnp.dot(r, r)
     k = 1.5 * mu * j2 * radius ** 2 / (r2 * r2 * jnp.sqrt(r2))
-    q = 5.0 * r[2] ** 2 / r2
-    return k * jnp.stack([(q - 1.0) * r[0], (q - 1.0) * r[1], (q - 3.0) * r[2]])
+    if pole is None:
+        q = 5.0 * r[2] ** 2 / r2
+        return k * jnp.stack([(q - 1.0) * r[0], (q - 1.0) * r[1], (q - 3.0) * r[2]])
+    z = jnp.dot(pole, r)
+    return k * ((5.0 * z * z / r2 - 1.0) * r - 2.0 * z * pole)
 
 
 # --------------------------------------------------------------------------------------------
@@ -301,15 +308,14 @@ def acceleration_terms(r, t, model: PerturbationModel) -> dict:
     r = jnp.asarray(r, dtype=jnp.float64)
     t = jnp.asarray(t, dtype=jnp.float64)
     out = {}
-    if model.gravity != "none":
+    if model.gravity == "j2":                                 # the frozen pole, NPB's third row
+        out["j2"] = j2_acceleration(r, model.gm, model.j2, model.radius, pole=model.rot.npb[2])
+    elif model.gravity != "none":
         theta = earth_angle(t, model.rot)
         r_f = to_itrs(r, theta, model.rot)                    # M(t) r, elementwise (frames.py)
-        if model.gravity == "j2":
-            out["j2"] = to_icrs(j2_acceleration(r_f, model.gm, model.j2, model.radius), theta, model.rot)
-        else:
-            a_f = geopotential_acceleration(r_f, np.array(model.cs[0]), np.array(model.cs[1]),
-                                            model.gm, model.radius, model.degree, model.order)
-            out["geopotential"] = to_icrs(a_f, theta, model.rot)
+        a_f = geopotential_acceleration(r_f, np.array(model.cs[0]), np.array(model.cs[1]),
+                                        model.gm, model.radius, model.degree, model.order)
+        out["geopotential"] = to_icrs(a_f, theta, model.rot)
     if model.bodies:
         pos = dict(zip(("moon", "sun"), model.eph.positions(t)))
         for i, b in enumerate(model.bodies):
