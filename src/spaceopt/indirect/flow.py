@@ -118,18 +118,17 @@ def tmin_ot_delta(K, y, tau, prm):
 
 
 def _pert_weight(model, tau):
-    """τ in the LP→target blends and the perturbation homotopies 'pert' and 'model', 1 in the
-    pure problems."""
-    return tau if (model.kind != "lp" and model.homotopy in ("lp", "pert", "model")) else 1.0
+    """τ in the LP→target blends and the perturbation homotopy 'pert', 1 in the pure problems."""
+    return tau if (model.kind != "lp" and model.homotopy in ("lp", "pert")) else 1.0
 
 
 def _h_perturbation(model: Model, K, x, lam, tau, prm, shift):
-    """The perturbation term of H at τ: τ-weighted H_p, plus (1 − τ) H_p of the start model in
-    the model blend 'model'."""
-    h = _pert_weight(model, tau) * hm.h_pert(K, x, lam, prm, shift)
+    """The perturbation term of H at τ: τ-weighted H_p; in the model blend 'model',
+    τ H_p[to] + (1 − τ) H_p[from] = H_p of the blended acceleration (H_p is linear in a_p), the
+    orbital frame computed once (:func:`hamiltonians.perturbation_tnr`)."""
     if model.homotopy == "model":
-        h = h + (1.0 - tau) * hm.h_pert(K, x, lam, {**prm, "pert": prm["pert_from"]}, shift)
-    return h
+        return hm.h_pert(K, x, lam, prm, shift, blend=tau)
+    return _pert_weight(model, tau) * hm.h_pert(K, x, lam, prm, shift)
 
 
 def field(model: Model, K, y, tau, prm):

@@ -149,12 +149,14 @@ def epsilon_schedule(tau, eps_final):
     return 1.0 - tau + eps_final * tau
 
 
-def perturbation_tnr(K, x, prm):
+def perturbation_tnr(K, x, prm, blend=None):
     """Perturbing acceleration (a_pt, a_pr, a_pn) in the orbital frame, nondimensional.
 
     Spec 01-methods §1.7 steps 2–4: r, v from the MEE (Appendix B.1), e_r = r/r,
     e_n = r×v/|r×v|, e_t = e_n×e_r; a_p from :func:`spaceopt.forces.perturbing_acceleration`
-    at r·DU and t_TDB = epoch [+ epoch_offset_s] + t·TU, scaled by TU²/DU.
+    at r·DU and t_TDB = epoch [+ epoch_offset_s] + t·TU, scaled by TU²/DU. ``blend`` = τ: the
+    force-model blend a_p = τ a_p[prm['pert']] + (1 − τ) a_p[prm['pert_from']], with the orbital
+    frame, position and time computed once for both models.
     """
     from ..elements import mee_to_cartesian
     from ..forces import perturbing_acceleration
@@ -170,11 +172,14 @@ def perturbation_tnr(K, x, prm):
     # prm['epoch_offset_s'] (optional): departure epoch shifted from the model's (E6 date homotopy)
     t = model.epoch + prm.get("epoch_offset_s", 0.0) + x[TIME] * prm["tu"]
     a = perturbing_acceleration(r * prm["du"], t, model)
+    if blend is not None:
+        a = blend * a + (1.0 - blend) * perturbing_acceleration(r * prm["du"], t, prm["pert_from"])
     a = a * prm["tu"] ** 2 / prm["du"]
     return jnp.stack([a @ e_t, a @ e_r, a @ e_n])
 
 
-def h_pert(K, x, lam, prm, p_lk_shift=0.0):
-    """H_p = k1 k2 (A_t a_pt + A_r a_pr + A_n a_pn) (2.1.4); A₁ (shifted p_LK) for T_min."""
+def h_pert(K, x, lam, prm, p_lk_shift=0.0, blend=None):
+    """H_p = k1 k2 (A_t a_pt + A_r a_pr + A_n a_pn) (2.1.4); A₁ (shifted p_LK) for T_min;
+    ``blend``: the force-model blend of :func:`perturbation_tnr`."""
     g = geometry(K, x)
-    return g["k1"] * g["k2"] * jnp.dot(primer(x, lam, g, p_lk_shift), perturbation_tnr(K, x, prm))
+    return g["k1"] * g["k2"] * jnp.dot(primer(x, lam, g, p_lk_shift), perturbation_tnr(K, x, prm, blend))
