@@ -182,17 +182,20 @@ def test_residual_step_growth_follows_a_path_with_a_small_newton_basin():
     |f| passes tol_step, as on the E8 lunisolar blend (accepted only when the predictor lands
     within tol_step). Growing the step by the predicted residual and capping it below the last
     rejected step needs fewer evaluations, and at c = 1e3 it converges where the iteration-count
-    rule underflows; so does a damped corrector (``max_backtracks``)."""
+    rule underflows; so do a damped corrector (``max_backtracks``) and the retry from the point
+    before the unchecked Newton update (``accepted_update: revert``; at c = 100 that retry makes
+    the iteration-count rule underflow instead: the accepted point lies at the basin's edge)."""
     import numpy as np
     from spaceopt.errors import ConvergenceError
     from spaceopt.indirect.continuation import Continuation, ContinuationOptions
 
-    def follower(c, growth, backtracks=0):
+    def follower(c, growth, backtracks=0, update="always"):
         def ev(z, tau):
             u = c * (z[0] - np.sin(5 * tau) / 5)
             d = 1e-4 * c / (1 + u * u)
             return np.array([1e-4 * np.arctan(u)]), np.array([[d]]), np.array([-d * np.cos(5 * tau)]), 0, True
-        return Continuation(ev, ContinuationOptions(verbose=False, step_growth=growth, max_backtracks=backtracks))
+        return Continuation(ev, ContinuationOptions(verbose=False, step_growth=growth, max_backtracks=backtracks,
+                                                    accepted_update=update))
 
     by_iterations, by_residual = follower(300.0, "iterations"), follower(300.0, "residual")
     for cont in (by_iterations, by_residual):
@@ -210,8 +213,13 @@ def test_residual_step_growth_follows_a_path_with_a_small_newton_basin():
     z, _ = damped.run(np.array([0.0]))
     assert z[0] == pytest.approx(np.sin(5.0) / 5, abs=1e-8)
     assert damped.stats.steps > 10
+    # and so does retrying a rejected step from the point before its unchecked Newton update
+    z, _ = follower(1e3, "iterations", update="revert").run(np.array([0.0]))
+    assert z[0] == pytest.approx(np.sin(5.0) / 5, abs=1e-8)
     with pytest.raises(ValueError, match="step_growth"):
         Continuation(lambda z, t: None, ContinuationOptions(step_growth="fast"))
+    with pytest.raises(ValueError, match="accepted_update"):
+        Continuation(lambda z, t: None, ContinuationOptions(accepted_update="never"))
 
 
 def test_arclength_gives_up_a_path_that_runs_back_below_the_floor():

@@ -22,7 +22,15 @@ point (a predictor error growing like h⁴: E8 450 rev, 4×4 → + Moon, it went
 3e-4 at 2h, where Newton diverged), and never beyond 0.8 of the last rejected step, a cap that
 relaxes by ×1.2 per accepted step. ``max_backtracks`` > 0 damps the corrector: a Newton step
 that does not halve |F| is halved along its direction before the step is rejected
-(:meth:`Continuation._correct`). At τ₁ a final Newton polish reaches ``tol_final``. Written by hand because the corrector-driven step control and the reuse of the
+(:meth:`Continuation._correct`). ``accepted_update``: the extra Newton update of an accepted point is
+not checked; with 'revert', the first step rejected after it is retried from the evaluated point
+(whose f and J the predictor uses anyway). On the E8 450-rev lunisolar blend the update threw
+the point accepted at τ 0.2915 (|F| 6.7e-5) off the path: every later predictor, down to
+h = 7e-4, started from |F| ~ 1e-2. Never updating is no cure: the residual then accumulates
+along the path (the test path of tests/test_perturbed_config.py stalls), and 'revert' is no
+general gain either (on that path at c = 100 it makes the iteration-count rule underflow, the
+accepted point lying at the edge of Newton's basin).
+At τ₁ a final Newton polish reaches ``tol_final``. Written by hand because the corrector-driven step control and the reuse of the
 propagated Jacobian have no counterpart in optimistix/diffrax (which integrate or solve, not both).
 """
 from __future__ import annotations
@@ -50,6 +58,7 @@ class ContinuationOptions:
     label: str = ""
     step_growth: str = "iterations"     # or 'residual' (module docstring)
     max_backtracks: int = 0             # damped Newton in the corrector (Continuation._correct)
+    accepted_update: str = "always"     # or 'revert' (module docstring)
 
 
 @dataclass
@@ -70,6 +79,7 @@ class ContinuationStats:
 
 
 GROWTH = ("iterations", "residual")
+ACCEPTED_UPDATES = ("always", "revert")
 ITERATION_GROWTH = {1: 2.0, 2: 1.5, 3: 1.2}
 
 
@@ -97,6 +107,8 @@ class Continuation:
         self.opt = options or ContinuationOptions()
         if self.opt.step_growth not in GROWTH:
             raise ValueError(f"step_growth {self.opt.step_growth!r}: expected one of {GROWTH}")
+        if self.opt.accepted_update not in ACCEPTED_UPDATES:
+            raise ValueError(f"accepted_update {self.opt.accepted_update!r}: expected one of {ACCEPTED_UPDATES}")
         self.stats = ContinuationStats()
         self._h_cap = float("inf")      # 0.8 of the last rejected step ('residual' growth)
 
@@ -129,7 +141,7 @@ class Continuation:
         span = tau1 - tau0
         F = f - b
         tau, h = tau0, opt.h_init * span
-        prev_tangent = None
+        prev_tangent = checked = None
         while tau1 - tau > 1e-14 * abs(span):
             if self.stats.steps + self.stats.rejected > opt.max_steps:
                 raise self._diagnose("too many continuation steps", z, tau, h, F)
@@ -149,7 +161,9 @@ class Continuation:
                 prev_tangent = (dz, h)
                 # one more Newton update with the last Jacobian, without re-evaluating: the
                 # residual drops quadratically and the next corrector re-checks it anyway
+                # (accepted_update 'revert': the evaluated point is kept for a retry)
                 z, tau, f, J, ftau, F = zt + _solve(Jt, -Ft), tt, ft, Jt, fttau, Ft
+                checked = zt if opt.accepted_update == "revert" else None
                 self.stats.steps += 1
                 # |dz/dτ| of the step's predictor grows without bound towards a fold in τ
                 self.stats.history.append({"tau": tau, "h": h, "iters": iters, "residual": nF,
@@ -160,6 +174,9 @@ class Continuation:
             else:
                 self._reject(tau, h)
                 h *= 0.3
+                if checked is not None:           # retry from the evaluated point (J, f are its)
+                    z, checked = checked, None
+                    self._log(f"  retry from the accepted point before its Newton update (|F| {_norm(F):.2e})")
                 if h < opt.h_min * abs(span):
                     raise self._diagnose("step size underflow", z, tau, h, F)
         # final polish at τ₁ (re-evaluated with the polishing tolerances)
