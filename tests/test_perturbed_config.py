@@ -222,6 +222,22 @@ def test_residual_step_growth_follows_a_path_with_a_small_newton_basin():
         Continuation(lambda z, t: None, ContinuationOptions(accepted_update="never"))
 
 
+def test_path_options_keep_every_option_but_the_step_sizes_of_the_other_kind():
+    from spaceopt.indirect.chain import path_options
+    from spaceopt.indirect.continuation import STEP_SIZES, ArclengthOptions, ContinuationOptions
+    mine = ContinuationOptions(h_init=0.01, tol_step=1e-5, verbose=False, step_growth="residual",
+                               max_backtracks=2, accepted_update="revert")
+    arc = path_options("arclength", mine, "x")
+    assert isinstance(arc, ArclengthOptions) and arc.label == "x"
+    assert all(getattr(arc, k) == getattr(ArclengthOptions(), k) for k in STEP_SIZES)
+    assert (arc.tol_step, arc.verbose, arc.step_growth, arc.max_backtracks, arc.accepted_update) == \
+        (1e-5, False, "residual", 2, "revert")
+    assert path_options("tau", mine, "x") == ContinuationOptions(**{**mine.__dict__, "label": "x"})
+    assert path_options("tau", None, "x") == ContinuationOptions(label="x")
+    with pytest.raises(ValueError, match="homotopy path"):
+        path_options("spiral", None, "x")
+
+
 def test_arclength_gives_up_a_path_that_runs_back_below_the_floor():
     """z² + 1 = 2(1 − τ) from z = 1 has no root at τ = 1: the path folds at τ = ½ (z = 0) and runs
     back towards τ → −∞; the follower stops below ``tau_floor`` with a diagnosis, not at max_steps."""

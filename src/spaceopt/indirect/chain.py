@@ -30,7 +30,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import hamiltonians as hm
-from .continuation import ArclengthContinuation, ArclengthOptions, Continuation, ContinuationOptions
+from .continuation import (STEP_SIZES, ArclengthContinuation, ArclengthOptions, Continuation,
+                           ContinuationOptions)
 from .flow import Model, field as flow_field
 from .shooting import Shooting, initial_state, shoot
 from .transfer import Transfer
@@ -90,20 +91,27 @@ class Solution:
 PATHS = {"tau": Continuation, "arclength": ArclengthContinuation}
 
 
-def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None, path: str = "tau"):
-    """Follow the Newton homotopy of ``sh`` from z0 (τ = 0) to τ = 1, in τ or in arclength.
-
-    ``options`` of the wrong kind for the path are re-typed keeping only the label, ``verbose``
-    and ``step_growth``, so that the arclength path gets its own step sizes
-    (:class:`~.continuation.ArclengthOptions`).
-    """
+def path_options(path: str, options: ContinuationOptions | None, label: str) -> ContinuationOptions:
+    """The follower options for ``path`` ('tau' | 'arclength') from the caller's ``options``:
+    options of the wrong kind are re-typed with the path's own step sizes (``STEP_SIZES``: τ
+    steps and arclength steps are not the same measure, :class:`~.continuation.ArclengthOptions`)
+    and every other option kept; ``label`` names the follower in the log."""
     if path not in PATHS:
         raise ValueError(f"homotopy path {path!r}: expected one of {sorted(PATHS)}")
-    cls = PATHS[path]
     kind = ContinuationOptions if path == "tau" else ArclengthOptions
-    own = options is not None and (isinstance(options, ArclengthOptions) == (path != "tau"))
-    kept = {} if options is None else {"verbose": options.verbose, "step_growth": options.step_growth}
-    opt = kind(**{**(options.__dict__ if own else kind().__dict__), **kept, "label": label})
+    fields = kind().__dict__
+    if options is not None:
+        own = isinstance(options, ArclengthOptions) == (path != "tau")
+        fields = {**fields, **{k: v for k, v in options.__dict__.items()
+                               if k in fields and (own or k not in STEP_SIZES)}}
+    return kind(**{**fields, "label": label})
+
+
+def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None, path: str = "tau"):
+    """Follow the Newton homotopy of ``sh`` from z0 (τ = 0) to τ = 1, in τ or in arclength
+    (follower options from :func:`path_options`)."""
+    opt = path_options(path, options, label)
+    cls = PATHS[path]
     rtol, atol = max(sh.rtol, sh.path_rtol), max(sh.atol, sh.path_rtol * 0.1)
     cont = cls(lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm, rtol, atol), opt,
                polish=lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm))

@@ -270,6 +270,9 @@ class Continuation:
         return z, J
 
 
+STEP_SIZES = ("h_init", "h_min", "h_max", "max_steps")     # the options ArclengthOptions redefines
+
+
 @dataclass
 class ArclengthOptions(ContinuationOptions):
     """Step sizes measured in arclength of u = (z, τ) (``h_min`` absolute, not scaled by the span)."""

@@ -203,7 +203,7 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
     perturbations are switched on at that ε instead of ε_f; ``model_step_eps`` (case option
     ``model_step_at_eps``): a perturbed force model is changed at that ε, in arclength
     (E7: unperturbed → J2 → 4×4 + Moon + Sun, both at ε = 10⁻²; E8: J2 on at 10⁻², the model
-    step at ε_f). ``options``: continuation options of every stage (their ``step_growth`` reaches
+    step at ε_f). ``options``: continuation options of every stage (all but the step sizes reach
     the arclength paths too; case option ``warm_step_growth``, :func:`warm_start_options`). The
     path used is in ``stats['warm_path']``.
     """
