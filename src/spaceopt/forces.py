@@ -28,9 +28,9 @@ independent check of the values is documented.
 J2 only (lunar chapter, spec/01-methods.md §1.7, thesis §5.1.1):
     a_J2 = (3/2) mu J2 Re^2 / r^5 ((5 z^2/r^2 - 1) x, (5 z^2/r^2 - 1) y, (5 z^2/r^2 - 3) z)
 in the Earth-fixed frame (pole = frozen CIP of t0, like the geopotential); being axisymmetric it
-is evaluated in ICRS about that pole, with no Earth rotation angle (``j2_acceleration(pole=)``). ERRATUM: the thesis
-prints a factor 1/2 instead of 3/2 and a z-component 5(z^2/r^2 - 3) z; the formula above is the
-gradient of U_J2 = -mu J2 Re^2 (3 z^2/r^2 - 1)/(2 r^3) (checked in the tests against jax.grad
+is evaluated in ICRS about that pole, with no Earth rotation angle (``j2_acceleration(pole=)``).
+ERRATUM: the thesis prints a factor 1/2 instead of 3/2 and a z-component 5(z^2/r^2 - 3) z; the
+formula above is the gradient of U_J2 = -mu J2 Re^2 (3 z^2/r^2 - 1)/(2 r^3) (checked in the tests against jax.grad
 and against the 4x4 model restricted to C20). The thesis does not give J2, Re or mu; this module
 uses the EGM96 values J2 = -sqrt(5) Cbar_20 = 1.0826266835531513e-3, Re = a_e, mu = GM(EGM96).
 
@@ -179,11 +179,9 @@ def j2_acceleration(r, mu, j2, radius, pole=None):
     printed formula reads a = k ((5 z²/r² − 1) r − 2 z pole) in any frame: in ICRS with the
     frozen pole no Earth rotation angle is needed (the model's t-dependence drops out).
     """
+    pole = jnp.array([0.0, 0.0, 1.0]) if pole is None else pole
     r2 = jnp.dot(r, r)
     k = 1.5 * mu * j2 * radius ** 2 / (r2 * r2 * jnp.sqrt(r2))
-    if pole is None:
-        q = 5.0 * r[2] ** 2 / r2
-        return k * jnp.stack([(q - 1.0) * r[0], (q - 1.0) * r[1], (q - 3.0) * r[2]])
     z = jnp.dot(pole, r)
     return k * ((5.0 * z * z / r2 - 1.0) * r - 2.0 * z * pole)
 

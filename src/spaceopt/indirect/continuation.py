@@ -22,15 +22,15 @@ point (a predictor error growing like h⁴: E8 450 rev, 4×4 → + Moon, it went
 3e-4 at 2h, where Newton diverged), and never beyond 0.8 of the last rejected step, a cap that
 relaxes by ×1.2 per accepted step. ``max_backtracks`` > 0 damps the corrector: a Newton step
 that does not halve |F| is halved along its direction before the step is rejected
-(:meth:`Continuation._correct`). ``accepted_update``: the extra Newton update of an accepted point is
-not checked; with 'revert', the first step rejected after it is retried from the evaluated point
+(:meth:`Continuation._correct`). ``accepted_update``: the extra Newton update of an accepted
+point (τ follower) is not checked; with 'revert', the first step rejected after it is retried from the evaluated point
 (whose f and J the predictor uses anyway). On the E8 450-rev lunisolar blend the update threw
 the point accepted at τ 0.2915 (|F| 6.7e-5) off the path: every later predictor, down to
 h = 7e-4, started from |F| ~ 1e-2. Never updating is no cure: the residual then accumulates
 along the path (the test path of tests/test_perturbed_config.py stalls), and 'revert' is no
 general gain either (on that path at c = 100 it makes the iteration-count rule underflow, the
-accepted point lying at the edge of Newton's basin).
-At τ₁ a final Newton polish reaches ``tol_final``. Written by hand because the corrector-driven step control and the reuse of the
+accepted point lying at the edge of Newton's basin). At τ₁ a final Newton polish reaches
+``tol_final``. Written by hand because the corrector-driven step control and the reuse of the
 propagated Jacobian have no counterpart in optimistix/diffrax (which integrate or solve, not both).
 """
 from __future__ import annotations
@@ -111,6 +111,7 @@ class Continuation:
             raise ValueError(f"accepted_update {self.opt.accepted_update!r}: expected one of {ACCEPTED_UPDATES}")
         self.stats = ContinuationStats()
         self._h_cap = float("inf")      # 0.8 of the last rejected step ('residual' growth)
+        self.last_rejection = ""        # why the corrector gave up last (_correct)
 
     def _eval(self, z, tau, final=False):
         f, J, ftau, nsteps, ok = (self.polish if final else self.evaluate)(z, tau)

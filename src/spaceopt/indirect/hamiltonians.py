@@ -171,9 +171,10 @@ def perturbation_tnr(K, x, prm, blend=None):
     model = prm["pert"]
     # prm['epoch_offset_s'] (optional): departure epoch shifted from the model's (E6 date homotopy)
     t = model.epoch + prm.get("epoch_offset_s", 0.0) + x[TIME] * prm["tu"]
-    a = perturbing_acceleration(r * prm["du"], t, model)
+    r_m = r * prm["du"]
+    a = perturbing_acceleration(r_m, t, model)
     if blend is not None:
-        a = blend * a + (1.0 - blend) * perturbing_acceleration(r * prm["du"], t, prm["pert_from"])
+        a = blend * a + (1.0 - blend) * perturbing_acceleration(r_m, t, prm["pert_from"])
     a = a * prm["tu"] ** 2 / prm["du"]
     return jnp.stack([a @ e_t, a @ e_r, a @ e_n])
 
