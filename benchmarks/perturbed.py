@@ -250,10 +250,30 @@ def _kernel_count(compiled) -> int:
     return best
 
 
-def field_profile(rounds: int) -> dict:
+def compiled_field_loop(model, prm: dict, ndir: int, tau: float = 1.0):
+    """The integrator's right-hand side of ``model`` (field + ``ndir`` sensitivity columns,
+    ``jax.linearize`` as in ``flow.propagate_with_sensitivities``) at homotopy parameter ``tau``,
+    compiled in a loop of PROFILE_EVALS evaluations at a fixed state; returns (compiled, args)."""
     import jax
     import jax.numpy as jnp
-    from spaceopt.indirect import chain, flow
+    from spaceopt.indirect import flow
+    y0 = jnp.concatenate([prm["x0"], jnp.array([0.3, 0.01, 1.0]), 1e-3 * jnp.ones(model.n)])
+    Phi = jnp.eye(2 * model.n, ndir) + 0.01
+    tt = jnp.zeros(ndir).at[-1].set(1.0)
+
+    def loop(y, Phi, prm_):
+        def body(i, c):
+            y, Phi = c
+            gy, lin = jax.linearize(lambda yy, t_: flow.field(model, 0.1 * i, yy, t_, prm_), y, tau)
+            dPhi = jax.vmap(lin, in_axes=(1, 0), out_axes=1)(Phi, tt)
+            return y + 1e-9 * gy, Phi + 1e-9 * dPhi
+        return jax.lax.fori_loop(0, PROFILE_EVALS, body, (y, Phi))
+    return jax.jit(loop).lower(y0, Phi, prm).compile(), (y0, Phi, prm)
+
+
+def field_profile(rounds: int) -> dict:
+    import jax
+    from spaceopt.indirect import chain
     from spaceopt.studies import perturbed as P
 
     pc = _perturbed_config()
@@ -263,23 +283,9 @@ def field_profile(rounds: int) -> dict:
     for name in PROFILE_MODELS:
         tr = P.transfer_from_config(pc, "e8", name, ephemeris=eph, n_rev=5.0)
         sh = chain.shooting_for("ot", "eps", tr)
-        prm, m = tr.params(), sh.model
-        y0 = jnp.concatenate([prm["x0"], jnp.array([0.3, 0.01, 1.0]), 1e-3 * jnp.ones(m.n)])
-        ndir = sh.size                                       # unknowns without K_f, plus tau
-        Phi = jnp.eye(2 * m.n, ndir) + 0.01
-        tt = jnp.zeros(ndir).at[-1].set(1.0)
-
-        def loop(y, Phi, prm_, m=m, tt=tt):
-            def body(i, c):
-                y, Phi = c
-                gy, lin = jax.linearize(lambda yy, t_: flow.field(m, 0.1 * i, yy, t_, prm_), y, 1.0)
-                dPhi = jax.vmap(lin, in_axes=(1, 0), out_axes=1)(Phi, tt)
-                return y + 1e-9 * gy, Phi + 1e-9 * dPhi
-            return jax.lax.fori_loop(0, PROFILE_EVALS, body, (y, Phi))
-
         t0 = time.perf_counter()
-        f = jax.jit(loop).lower(y0, Phi, prm).compile()
-        built[name] = (f, (y0, Phi, prm), time.perf_counter() - t0, _kernel_count(f))
+        f, args = compiled_field_loop(sh.model, tr.params(), sh.size)
+        built[name] = (f, args, time.perf_counter() - t0, _kernel_count(f))
         print(f"[profile] {name}: {built[name][3]} kernels", file=sys.stderr, flush=True)
     best = {k: math.inf for k in built}
     for _ in range(rounds):

@@ -1,7 +1,7 @@
 """Two optimisations of the perturbed field, each against its old form, side by side in one process.
 
-The cost of the integrator's right-hand side (field + sensitivity columns, compiled in a loop of
-2000 evaluations as in benchmarks/perturbed.py --profile), min per evaluation over interleaved
+The cost of the integrator's right-hand side (field + sensitivity columns, compiled in a loop by
+benchmarks/perturbed.py's compiled_field_loop, as for --profile), min per evaluation over interleaved
 rounds. The old forms are rebuilt here from public pieces and swapped in while a loop is traced:
 
 * ``j2``: J2 about the frozen pole (forces.acceleration_terms) against r rotated to the
@@ -17,11 +17,15 @@ Usage (repository root, after the ephemeris window exists):
 Measured 23 Nov 2026 on 2 cores with other solves running (load 5-7): j2 old/new 1.32, 1.11,
 1.26, 1.12, 1.15, 1.17 in six runs (e.g. old 136.0, new 102.8, unperturbed 26.4 us/eval);
 blend (with the new J2 in both) old/new 1.29, 1.34 (244.6 against 189.0 us/eval).
+On the idle machine (nothing else running): j2 40.3 against 36.4 us/eval (1.11), blend 97.1
+against 80.6 (1.21), unperturbed 10.9: the load inflates the perturbed fields more than the
+unperturbed one, so the loaded ratios above overstate the gain somewhat.
 """
 import dataclasses
 import math
 import sys
 import time
+from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -32,7 +36,8 @@ from spaceopt.indirect import chain, flow
 from spaceopt.indirect import hamiltonians as hm
 from spaceopt.studies import perturbed as P
 
-EVALS = 2000
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from perturbed import PROFILE_EVALS, compiled_field_loop  # noqa: E402
 
 
 def old_j2_terms(r, t, model):
@@ -55,7 +60,8 @@ OLD = {"j2": (Fo, "acceleration_terms", old_j2_terms), "blend": (flow, "_h_pertu
 
 
 def build(pc, eph, model_name, homotopy="eps", pert_from=None, old=None):
-    """The compiled loop of EVALS field evaluations (``old``: a key of OLD swapped in while tracing)."""
+    """The compiled field loop (benchmarks/perturbed.py) at τ 0.6 (``old``: a key of OLD swapped
+    in while tracing)."""
     module, attr, replacement = OLD[old] if old else (None, None, None)
     kept = getattr(module, attr) if old else None
     if old:
@@ -63,20 +69,10 @@ def build(pc, eph, model_name, homotopy="eps", pert_from=None, old=None):
     try:
         tr = P.transfer_from_config(pc, "e8", model_name, ephemeris=eph, n_rev=5.0)
         sh = chain.shooting_for("ot", "eps", tr)
-        prm, m = tr.params(), dataclasses.replace(sh.model, homotopy=homotopy)
+        prm = tr.params()
         if pert_from:
             prm["pert_from"] = P.transfer_from_config(pc, "e8", pert_from, ephemeris=eph, n_rev=5.0).params()["pert"]
-        y0 = jnp.concatenate([prm["x0"], jnp.array([0.3, 0.01, 1.0]), 1e-3 * jnp.ones(m.n)])
-        Phi = jnp.eye(2 * m.n, sh.size) + 0.01
-        tt = jnp.zeros(sh.size).at[-1].set(1.0)
-
-        def loop(y, Phi, prm_):
-            def body(i, c):
-                y, Phi = c
-                gy, lin = jax.linearize(lambda yy, t_: flow.field(m, 0.1 * i, yy, t_, prm_), y, 0.6)
-                return y + 1e-9 * gy, Phi + 1e-9 * jax.vmap(lin, in_axes=(1, 0), out_axes=1)(Phi, tt)
-            return jax.lax.fori_loop(0, EVALS, body, (y, Phi))
-        return jax.jit(loop).lower(y0, Phi, prm).compile(), (y0, Phi, prm)
+        return compiled_field_loop(dataclasses.replace(sh.model, homotopy=homotopy), prm, sh.size, tau=0.6)
     finally:
         if old:
             setattr(module, attr, kept)
@@ -95,7 +91,7 @@ def main(rounds):
         for k, (f, args) in built.items():
             t0 = time.perf_counter()
             jax.block_until_ready(f(*args))
-            best[k] = min(best[k], (time.perf_counter() - t0) / EVALS * 1e6)
+            best[k] = min(best[k], (time.perf_counter() - t0) / PROFILE_EVALS * 1e6)
     for k, v in best.items():
         print(f"{k:22s} {v:8.1f} us/eval")
     for what in ("j2", "blend"):
