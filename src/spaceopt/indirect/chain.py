@@ -33,6 +33,8 @@ from . import hamiltonians as hm
 from .continuation import (STEP_SIZES, ArclengthContinuation, ArclengthOptions, Continuation,
                            ContinuationOptions)
 from .flow import Model, field as flow_field
+from .multiple_shooting import MultipleShooting, node_positions, start_nodes
+from .multiple_shooting import shoot as multiple_shoot
 from .shooting import Shooting, initial_state, shoot
 from .transfer import Transfer
 
@@ -107,21 +109,47 @@ def path_options(path: str, options: ContinuationOptions | None, label: str) -> 
     return kind(**{**fields, "label": label})
 
 
-def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None, path: str = "tau"):
+def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None, path: str = "tau", arcs: int = 1):
     """Follow the Newton homotopy of ``sh`` from z0 (τ = 0) to τ = 1, in τ or in arclength
-    (follower options from :func:`path_options`)."""
+    (follower options from :func:`path_options`); ``arcs`` > 1: by multiple shooting over that
+    many arcs (:mod:`.multiple_shooting`), the end point polished again by single shooting."""
+    if arcs > 1:
+        return _run_multiple(sh, z0, prm, label, options, path, arcs)
     opt = path_options(path, options, label)
-    cls = PATHS[path]
     rtol, atol = max(sh.rtol, sh.path_rtol), max(sh.atol, sh.path_rtol * 0.1)
-    cont = cls(lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm, rtol, atol), opt,
-               polish=lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm))
+    cont = PATHS[path](lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm, rtol, atol), opt,
+                       polish=lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm))
+    return _follow(cont, z0, path)
+
+
+def _follow(cont, z0, path, tau0=0.0):
     t0 = time.perf_counter()
-    z, _ = cont.run(z0)
+    z, _ = cont.run(z0, tau0=tau0)
     stats = cont.stats.as_dict()
     stats["wall_time_s"] = time.perf_counter() - t0
     if path != "tau":
         stats["path"] = path
     return np.asarray(z), stats
+
+
+def _run_multiple(sh: Shooting, z0, prm, label, options, path, arcs):
+    """:func:`_run` by multiple shooting: nodes at j K_f/M of the starting point's K_f, started
+    on the trajectory through z0 at τ = 0; at τ = 1 the single-shooting block of Z is polished
+    by single shooting (Newton at τ = 1, end-point tolerances)."""
+    ms = MultipleShooting(sh, arcs)
+    nodes = jnp.asarray(node_positions(float(z0[sh.kf_index]), arcs))
+    Z0, weights = start_nodes(ms, z0, 0.0, prm, nodes)
+    weights = jnp.asarray(weights)
+    rtol, atol = max(sh.rtol, sh.path_rtol), max(sh.atol, sh.path_rtol * 0.1)
+    opt = path_options(path, options, f"{label} ({arcs} arcs)")
+    cont = PATHS[path](lambda Z, tau: multiple_shoot(ms, jnp.asarray(Z), tau, prm, nodes, weights, rtol, atol),
+                       opt, polish=lambda Z, tau: multiple_shoot(ms, jnp.asarray(Z), tau, prm, nodes, weights))
+    Z, stats = _follow(cont, Z0, path)
+    single = lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm)
+    polish = Continuation(single, path_options("tau", options, f"{label} single-shooting polish"),
+                          polish=lambda z, tau: single(z, tau))
+    z, stats_polish = _follow(polish, Z[:sh.size], "tau", tau0=1.0)
+    return z, {**_merge_stats({"multiple_shooting": stats, "single_polish": stats_polish}), "arcs": arcs}
 
 
 def _merge_stats(parts: dict) -> dict:
@@ -240,7 +268,8 @@ def solve_ot_from_tmin(tmin: Solution, thrust_N: float, options=None, label="ot"
 PATH_DATA = ("thrust", "L0", "Lf", "c", "epoch_offset_s")
 
 
-def continue_in_params(sol: Solution, prm_to: dict, options=None, label="param", path: str = "tau") -> Solution:
+def continue_in_params(sol: Solution, prm_to: dict, options=None, label="param", path: str = "tau",
+                       arcs: int = 1) -> Solution:
     """From a converged solution to the same problem with other data (thrust, L0, L_f, …).
 
     ``prm_to`` is a full parameter set (``Transfer.params``); the keys that differ from the
@@ -252,14 +281,15 @@ def continue_in_params(sol: Solution, prm_to: dict, options=None, label="param",
     frm = {k: sol.prm[k] for k in keys}
     prm = {**prm_to, "path_from": frm, "path_to": {k: prm_to[k] for k in keys}}
     sh = dataclasses.replace(sol.shooting, model=dataclasses.replace(sol.shooting.model, homotopy="param"))
-    z, stats = _run(sh, sol.z, prm, label, options, path)
+    z, stats = _run(sh, sol.z, prm, label, options, path, arcs)
     out = Solution(sol.stage, sol.shooting, z, dict(prm_to), sol.transfer, stats)
     if sol.stage == "tmin":
         out.thrust_N = float(z[-1]) * sol.transfer.force_unit
     return out
 
 
-def continue_in_model(sol: Solution, prm_to: dict, options=None, label="model", path: str = "tau") -> Solution:
+def continue_in_model(sol: Solution, prm_to: dict, options=None, label="model", path: str = "tau",
+                      arcs: int = 1) -> Solution:
     """From a converged perturbed OT solution to the same problem under another force model
     (``prm_to['pert']``, every other datum the solution's), at its ε, by the model blend
     (flow.Model homotopy 'model'): a_p = (1 − τ) a_p,from + τ a_p,to.
@@ -267,13 +297,14 @@ def continue_in_model(sol: Solution, prm_to: dict, options=None, label="model", 
     The physical path, unlike the Newton homotopy f(z, τ) = (1 − τ) f(z₀) at the new model:
     E8 at 300 revolutions, 4×4 → 4×4 + Moon + Sun at ε_f, the Newton homotopy folds at τ ≈ 0.35
     (113 Jacobians, docs/perturbed-e6-e7-e8.md); the blend of the Moon and Sun terms converges in 13.
+    ``arcs`` > 1: followed by multiple shooting (:mod:`.multiple_shooting`).
     """
     moved = [k for k in (*PATH_DATA, "eps_final")
              if (k in sol.prm or k in prm_to) and not np.isclose(sol.prm.get(k, 0.0), prm_to.get(k, 0.0), rtol=0, atol=0)]
     if moved or sol.stage != "ot" or not sol.shooting.model.perturbed:
         raise ValueError(f"continue_in_model: a perturbed OT solution at the same data is needed (differs: {moved})")
     sh = dataclasses.replace(sol.shooting, model=dataclasses.replace(sol.shooting.model, homotopy="model"))
-    z, stats = _run(sh, sol.z, {**prm_to, "pert_from": sol.prm["pert"]}, label, options, path)
+    z, stats = _run(sh, sol.z, {**prm_to, "pert_from": sol.prm["pert"]}, label, options, path, arcs)
     return Solution(sol.stage, sol.shooting, z, dict(prm_to), sol.transfer, stats, thrust_N=sol.thrust_N)
 
 

@@ -205,15 +205,15 @@ def _primal_rms(err):
     return jnp.sqrt(jnp.mean(y_err**2))
 
 
-def _solve(rhs, y0, Kf, args, rtol, atol, max_steps, saveat):
+def _solve(rhs, y0, K0, Kf, args, rtol, atol, max_steps, saveat):
     return diffrax.diffeqsolve(
-        diffrax.ODETerm(rhs), diffrax.Dopri8(), t0=0.0, t1=Kf, dt0=None, y0=y0, args=args,
+        diffrax.ODETerm(rhs), diffrax.Dopri8(), t0=K0, t1=Kf, dt0=None, y0=y0, args=args,
         stepsize_controller=diffrax.PIDController(rtol=rtol, atol=atol, norm=_primal_rms),
         saveat=saveat, max_steps=max_steps, throw=False)
 
 
-def propagate_with_sensitivities(model: Model, y0, Phi0, Kf, tau, prm, rtol, atol, max_steps):
-    """Integrate y and Φ = ∂y/∂(z…, τ) from K = 0 to Kf. The last column of Φ is the τ column."""
+def propagate_with_sensitivities(model: Model, y0, Phi0, Kf, tau, prm, rtol, atol, max_steps, K0=0.0):
+    """Integrate y and Φ = ∂y/∂(z…, τ) from K = K0 to Kf. The last column of Φ is the τ column."""
     n_dir = Phi0.shape[1]
     tau_tangent = jnp.zeros(n_dir).at[-1].set(1.0)
 
@@ -224,6 +224,6 @@ def propagate_with_sensitivities(model: Model, y0, Phi0, Kf, tau, prm, rtol, ato
         dPhi = jax.vmap(lin, in_axes=(1, 0), out_axes=1)(Phi, tau_tangent)
         return gy, dPhi
 
-    sol = _solve(rhs, (y0, Phi0), Kf, (tau, prm), rtol, atol, max_steps, diffrax.SaveAt(t1=True))
+    sol = _solve(rhs, (y0, Phi0), K0, Kf, (tau, prm), rtol, atol, max_steps, diffrax.SaveAt(t1=True))
     yf, Phif = sol.ys[0][-1], sol.ys[1][-1]
     return yf, Phif, sol.stats["num_steps"], sol.result == diffrax.RESULTS.successful

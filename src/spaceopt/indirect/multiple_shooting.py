@@ -1,0 +1,149 @@
+"""Multiple shooting: the single-shooting map of :mod:`.shooting` split into M arcs in K.
+
+Single shooting over hundreds of revolutions has a tiny Newton basin: the end state depends on
+the initial costates through a product of hundreds of revolution maps (E8, 450 revolutions,
+4×4 → 4×4 + Moon: cond ∂f/∂z = 4e7, Newton diverges from |f| ≳ 2e-4 although the Jacobian is
+accurate). Multiple shooting (spec 01-methods §3.1 names shooting only; this is the textbook
+cure, Stoer & Bulirsch §7.3.5) cuts the range at fixed nodes 0 < K₁ < … < K_{M−1} < K_f and
+adds the full state-costate vector y_j at every inner node to the unknowns:
+
+    Z = (z, y₁, …, y_{M−1}),   z = the single-shooting unknowns (costates at K = 0, K_f),
+
+    F(Z, τ) = ( p_LK(0) + H(0),
+                w₁ ⊙ (y(K₁; y(0; z)) − y₁), …, w_{M−1} ⊙ (y(K_{M−1}; y_{M−2}) − y_{M−1}),
+                terminal residual of y(K_f; y_{M−1}) ),
+
+each arc integrated from its own node, so each sensitivity matrix spans only K_f/M. The rows
+are scaled by fixed weights w_j = 1/max(1, |y_j|) of the starting nodes (t grows to ~2000 time
+units over E8: its continuity is measured relatively). The nodes stay fixed while K_f moves (the
+last arc ends at K_f); the K_f column is g(K_f) of the last arc, as in single shooting. At
+τ = 1 the first block of Z is a single-shooting solution: the same extremal, returned in the
+single-shooting layout so that everything downstream is unchanged.
+
+Sensitivities: every arc carries Φ with 2n + 1 columns (∂/∂y_j and the τ column; the first arc
+∂/∂(free costates) padded with zeros), so all arcs are one ``jax.vmap`` of the single-arc
+propagator (:func:`.flow.propagate_with_sensitivities`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import partial
+
+import diffrax
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .flow import field, params_at, propagate_with_sensitivities
+from .shooting import Shooting, initial_state, terminal_residual, transversality
+
+
+@dataclass(frozen=True)
+class MultipleShooting:
+    """Static layout: the single-shooting problem and the number of arcs (≥ 2)."""
+    single: Shooting
+    arcs: int
+
+    def __post_init__(self):
+        if self.arcs < 2:
+            raise ValueError(f"multiple shooting needs at least 2 arcs, got {self.arcs}")
+
+    @property
+    def width(self) -> int:
+        """2n: the length of one node vector y_j."""
+        return 2 * self.single.model.n
+
+    @property
+    def size(self) -> int:
+        return self.single.size + (self.arcs - 1) * self.width
+
+
+def node_positions(K_f: float, arcs: int) -> np.ndarray:
+    """The inner nodes K_j = j K_f / M, j = 1 … M−1 (fixed once chosen)."""
+    return np.arange(1, arcs) * (K_f / arcs)
+
+
+def start_nodes(ms: MultipleShooting, z, tau, prm, nodes):
+    """Z from a single-shooting point z: y at the nodes of the trajectory through z at τ, and the
+    continuity weights 1/max(1, |y_j|)."""
+    sh = ms.single
+    y0 = initial_state(sh, jnp.asarray(z), params_at(sh.model, prm, tau))
+    ys = np.asarray(_through_nodes(sh.model, y0, jnp.asarray(nodes), tau, prm, sh.rtol, sh.atol, sh.max_steps))
+    Z = np.concatenate([np.asarray(z, float), ys.ravel()])
+    return Z, 1.0 / np.maximum(1.0, np.abs(ys))
+
+
+@partial(jax.jit, static_argnums=(0, 7))
+def _through_nodes(model, y0, nodes, tau, prm, rtol, atol, max_steps):
+    out = diffrax.diffeqsolve(
+        diffrax.ODETerm(lambda K, y, args: field(model, K, y, tau, args)), diffrax.Dopri8(),
+        0.0, nodes[-1], None, y0, args=prm,
+        stepsize_controller=diffrax.PIDController(rtol=rtol, atol=atol),
+        saveat=diffrax.SaveAt(ts=nodes), max_steps=max_steps)
+    return out.ys
+
+
+def shoot(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol=None, atol=None):
+    """F(Z, τ), ∂F/∂Z, ∂F/∂τ, integration steps (all arcs), success flag."""
+    sh = ms.single
+    return _shoot(ms, Z, tau, prm, nodes, weights, sh.rtol if rtol is None else rtol,
+                  sh.atol if atol is None else atol)
+
+
+@partial(jax.jit, static_argnums=0)
+def _shoot(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol, atol):
+    sh, M, w = ms.single, ms.arcs, ms.width
+    s, kf = sh.size, sh.kf_index
+    z, Kf = Z[:s], Z[kf]
+    ys = Z[s:].reshape(M - 1, w)
+
+    z_nokf = jnp.delete(z, kf, assume_unique_indices=True)
+
+    def y0_of(znk, t):
+        return initial_state(sh, jnp.insert(znk, kf, Kf), params_at(sh.model, prm, t))
+
+    y0 = y0_of(z_nokf, tau)
+    dy0_dz, dy0_dtau = jax.jacfwd(y0_of, argnums=(0, 1))(z_nokf, tau)
+    first = jnp.zeros((w, w + 1)).at[:, :s - 1].set(dy0_dz).at[:, -1].set(dy0_dtau)
+    inner = jnp.broadcast_to(jnp.eye(w, w + 1), (M - 1, w, w + 1))
+    Y0 = jnp.concatenate([y0[None], ys])
+    Phi0 = jnp.concatenate([first[None], inner])
+    K0 = jnp.concatenate([jnp.zeros(1), nodes])
+    K1 = jnp.concatenate([nodes, Kf[None]])
+    prop = jax.vmap(lambda y, P, a, b: propagate_with_sensitivities(
+        sh.model, y, P, b, tau, prm, rtol, atol, sh.max_steps, K0=a))
+    yend, Phi, nsteps, ok = prop(Y0, Phi0, K0, K1)
+
+    # continuity rows: arc j = 0 … M−2 ends at node j+1 (columns: the first arc's free unknowns
+    # are z without K_f; arc j ≥ 1 starts at y_j; every row block has −w_j at y_{j+1})
+    n_cont = (M - 1) * w
+    free = np.array([i for i in range(s) if i != kf])
+    J_cont = jnp.zeros((n_cont, ms.size)).at[:w, free].set(Phi[0][:, :s - 1])
+    for j in range(1, M - 1):
+        J_cont = J_cont.at[j * w:(j + 1) * w, s + (j - 1) * w:s + j * w].set(Phi[j][:, :w])
+    J_cont = weights.reshape(-1, 1) * J_cont
+    J_cont = J_cont.at[:, s:].add(-jnp.diag(weights.ravel()))
+    cont = (weights * (yend[:-1] - ys)).ravel()
+    cont_tau = (weights * Phi[:-1, :, -1]).ravel()
+
+    # terminal rows from the last arc
+    def term(yy, kk, t):
+        return terminal_residual(sh, yy, kk, params_at(sh.model, prm, t), t)
+
+    yf = yend[-1]
+    r_term = term(yf, Kf, tau)
+    dr_dy, dr_dK, dr_dtau = jax.jacfwd(term, argnums=(0, 1, 2))(yf, Kf, tau)
+    gf = field(sh.model, Kf, yf, tau, prm)
+    J_term = jnp.zeros((r_term.shape[0], ms.size))
+    J_term = J_term.at[:, s + (M - 2) * w:].set(dr_dy @ Phi[-1][:, :w])
+    J_term = J_term.at[:, kf].add(dr_dy @ gf + dr_dK)
+    f_term_tau = dr_dy @ Phi[-1][:, -1] + dr_dtau
+
+    r0 = transversality(sh, z, tau, prm)
+    dr0_dz, dr0_dtau = jax.jacfwd(lambda zz, tt: transversality(sh, zz, tt, prm), argnums=(0, 1))(z, tau)
+    J0 = jnp.zeros(ms.size).at[:s].set(dr0_dz)
+
+    f = jnp.concatenate([jnp.atleast_1d(r0), cont, r_term])
+    J = jnp.concatenate([J0[None], J_cont, J_term])
+    ftau = jnp.concatenate([jnp.atleast_1d(dr0_dtau), cont_tau, f_term_tau])
+    return f, J, ftau, jnp.sum(nsteps), jnp.all(ok)
