@@ -1,6 +1,7 @@
 """Multiple shooting (indirect.multiple_shooting): exact Jacobian of the split map, its agreement
 with single shooting on a trajectory, and continuation by it landing on the single-shooting
 extremal."""
+import dataclasses
 from pathlib import Path
 
 import jax.numpy as jnp
@@ -78,7 +79,8 @@ def test_continuation_by_multiple_shooting_lands_on_the_single_shooting_extremal
     q = chain.ContinuationOptions(verbose=False)
     ot = chain.solve_ot(chain.solve_lp(tr, q), 15.0, q)
     single = chain.continue_in_params(ot, tr.params(thrust=16.0), q)
-    multi = chain.continue_in_params(ot, tr.params(thrust=16.0), q, arcs=3)
+    split = dataclasses.replace(ot, shooting=dataclasses.replace(ot.shooting, path_arcs=3))
+    multi = chain.continue_in_params(split, tr.params(thrust=16.0), q)
     assert multi.stats["arcs"] == 3 and multi.stats["final_residual"] < 1e-9
     assert multi.stats["multiple_shooting"]["jacobian_evaluations"] > 0
     np.testing.assert_allclose(multi.z, single.z, rtol=1e-8, atol=1e-11)

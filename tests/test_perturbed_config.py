@@ -303,6 +303,25 @@ def test_path_rtol_per_model_mapping():
         P.transfer_from_config(with_rtol({"g44": "tight"}), "e9", "g44")
 
 
+def test_path_arcs_per_model_reaches_the_shooting_problem_and_is_checked():
+    from spaceopt.indirect import chain
+
+    def with_arcs(value):
+        pc = copy.deepcopy(PC)
+        pc["cases"]["e9"]["path_arcs"] = value
+        return pc
+
+    pc = with_arcs({"g44_moon_sun": 6})
+    tr = P.transfer_from_config(pc, "e9", "g44_moon_sun")
+    assert tr.path_arcs == 6 and chain.shooting_for("ot", "eps", tr).path_arcs == 6
+    assert P.transfer_from_config(pc, "e9", "j2").path_arcs == 1
+    assert P.transfer_from_config(with_arcs(3), "e9", "j2").path_arcs == 3
+    for bad, key in (({"g44": 0}, r"path_arcs\.g44"), (2.5, r"cases\.e9\.path_arcs"),
+                     ({"unperturbed": 4}, r"path_arcs\.unperturbed")):
+        with pytest.raises(ConfigError, match=key):
+            P.transfer_from_config(with_arcs(bad), "e9", "g44")
+
+
 def test_perturb_at_eps_is_read_and_checked():
     assert P.perturb_at_eps(PC, "e7") == PC["cases"]["e7"]["perturb_at_eps"]
     assert P.perturb_at_eps(PC, "e7", "model_step_at_eps") == PC["cases"]["e7"]["model_step_at_eps"]

@@ -109,12 +109,12 @@ def path_options(path: str, options: ContinuationOptions | None, label: str) -> 
     return kind(**{**fields, "label": label})
 
 
-def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None, path: str = "tau", arcs: int = 1):
+def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None, path: str = "tau"):
     """Follow the Newton homotopy of ``sh`` from z0 (τ = 0) to τ = 1, in τ or in arclength
-    (follower options from :func:`path_options`); ``arcs`` > 1: by multiple shooting over that
-    many arcs (:mod:`.multiple_shooting`), the end point polished again by single shooting."""
-    if arcs > 1:
-        return _run_multiple(sh, z0, prm, label, options, path, arcs)
+    (follower options from :func:`path_options`); ``sh.path_arcs`` > 1: by multiple shooting
+    over that many arcs (:mod:`.multiple_shooting`), the end point polished by single shooting."""
+    if sh.path_arcs > 1:
+        return _run_multiple(sh, z0, prm, label, options, path, sh.path_arcs)
     opt = path_options(path, options, label)
     rtol, atol = max(sh.rtol, sh.path_rtol), max(sh.atol, sh.path_rtol * 0.1)
     cont = PATHS[path](lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm, rtol, atol), opt,
@@ -268,8 +268,7 @@ def solve_ot_from_tmin(tmin: Solution, thrust_N: float, options=None, label="ot"
 PATH_DATA = ("thrust", "L0", "Lf", "c", "epoch_offset_s")
 
 
-def continue_in_params(sol: Solution, prm_to: dict, options=None, label="param", path: str = "tau",
-                       arcs: int = 1) -> Solution:
+def continue_in_params(sol: Solution, prm_to: dict, options=None, label="param", path: str = "tau") -> Solution:
     """From a converged solution to the same problem with other data (thrust, L0, L_f, …).
 
     ``prm_to`` is a full parameter set (``Transfer.params``); the keys that differ from the
@@ -281,15 +280,14 @@ def continue_in_params(sol: Solution, prm_to: dict, options=None, label="param",
     frm = {k: sol.prm[k] for k in keys}
     prm = {**prm_to, "path_from": frm, "path_to": {k: prm_to[k] for k in keys}}
     sh = dataclasses.replace(sol.shooting, model=dataclasses.replace(sol.shooting.model, homotopy="param"))
-    z, stats = _run(sh, sol.z, prm, label, options, path, arcs)
+    z, stats = _run(sh, sol.z, prm, label, options, path)
     out = Solution(sol.stage, sol.shooting, z, dict(prm_to), sol.transfer, stats)
     if sol.stage == "tmin":
         out.thrust_N = float(z[-1]) * sol.transfer.force_unit
     return out
 
 
-def continue_in_model(sol: Solution, prm_to: dict, options=None, label="model", path: str = "tau",
-                      arcs: int = 1) -> Solution:
+def continue_in_model(sol: Solution, prm_to: dict, options=None, label="model", path: str = "tau") -> Solution:
     """From a converged perturbed OT solution to the same problem under another force model
     (``prm_to['pert']``, every other datum the solution's), at its ε, by the model blend
     (flow.Model homotopy 'model'): a_p = (1 − τ) a_p,from + τ a_p,to.
@@ -297,14 +295,13 @@ def continue_in_model(sol: Solution, prm_to: dict, options=None, label="model", 
     The physical path, unlike the Newton homotopy f(z, τ) = (1 − τ) f(z₀) at the new model:
     E8 at 300 revolutions, 4×4 → 4×4 + Moon + Sun at ε_f, the Newton homotopy folds at τ ≈ 0.35
     (113 Jacobians, docs/perturbed-e6-e7-e8.md); the blend of the Moon and Sun terms converges in 13.
-    ``arcs`` > 1: followed by multiple shooting (:mod:`.multiple_shooting`).
     """
     moved = [k for k in (*PATH_DATA, "eps_final")
              if (k in sol.prm or k in prm_to) and not np.isclose(sol.prm.get(k, 0.0), prm_to.get(k, 0.0), rtol=0, atol=0)]
     if moved or sol.stage != "ot" or not sol.shooting.model.perturbed:
         raise ValueError(f"continue_in_model: a perturbed OT solution at the same data is needed (differs: {moved})")
     sh = dataclasses.replace(sol.shooting, model=dataclasses.replace(sol.shooting.model, homotopy="model"))
-    z, stats = _run(sh, sol.z, {**prm_to, "pert_from": sol.prm["pert"]}, label, options, path, arcs)
+    z, stats = _run(sh, sol.z, {**prm_to, "pert_from": sol.prm["pert"]}, label, options, path)
     return Solution(sol.stage, sol.shooting, z, dict(prm_to), sol.transfer, stats, thrust_N=sol.thrust_N)
 
 

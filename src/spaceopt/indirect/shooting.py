@@ -46,6 +46,8 @@ class Shooting:
     max_steps: int = MAX_STEPS
     path_rtol: float = dc_field(default=PATH_RTOL, compare=False)   # rtol while a path is followed
     fixed_time: bool = False      # t(K_f) = t_f (1.1.11) replaces p_t(K_f) = 0; p_t is then an unknown
+    path_arcs: int = dc_field(default=1, compare=False)    # > 1: paths followed by multiple
+    # shooting over that many arcs (chain._run, multiple_shooting); end points by single shooting
 
     @property
     def has_thrust(self) -> bool:

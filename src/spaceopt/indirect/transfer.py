@@ -71,10 +71,12 @@ class Transfer:
     tof_s: float | None = None             # fixed time of flight (1.1.11); None = free (optimal) time
     max_steps: int = MAX_STEPS             # integration-step cap of every propagation (step_cap)
     path_rtol: float = PATH_RTOL           # integration rtol along homotopy paths (Shooting.path_rtol)
+    path_arcs: int = 1                     # shooting arcs along homotopy paths (Shooting.path_arcs)
 
     def integration(self) -> dict:
-        """The integration settings every Shooting of this transfer takes (step cap, path rtol)."""
-        return {"max_steps": self.max_steps, "path_rtol": self.path_rtol}
+        """The integration settings every Shooting of this transfer takes (step cap, path rtol,
+        path arcs)."""
+        return {"max_steps": self.max_steps, "path_rtol": self.path_rtol, "path_arcs": self.path_arcs}
 
     def __post_init__(self):
         self.initial.check("initial")
@@ -84,6 +86,8 @@ class Transfer:
                 raise ConfigError(key, val, "must be a positive number")
         if not (isinstance(self.path_rtol, (int, float)) and 0 < self.path_rtol < 1e-3):
             raise ConfigError("path_rtol", self.path_rtol, "must be a relative tolerance in (0, 1e-3)")
+        if not (isinstance(self.path_arcs, int) and not isinstance(self.path_arcs, bool) and self.path_arcs >= 1):
+            raise ConfigError("path_arcs", self.path_arcs, "must be a whole number of shooting arcs >= 1")
         if not math.isnan(self.thrust) and not (math.isfinite(self.thrust) and self.thrust > 0):
             raise ConfigError("thrust", self.thrust, "must be a positive force in newtons")
         if not (0 < self.eps_final < 1):

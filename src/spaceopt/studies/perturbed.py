@@ -53,7 +53,7 @@ ANGLE_KEYS = ("i_deg", "raan_deg", "argp_deg")
 CASE_KEYS = ("initial", "final", "L0_deg", "n_rev", "m0_kg", "isp_s", "thrust_N", "epoch_utc",
              "ephemeris", "models")
 OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref", "route", "model_start", "fallback",
-                      "perturb_at_eps", "model_step_at_eps", "path_rtol", "warm_step_growth")
+                      "perturb_at_eps", "model_step_at_eps", "path_rtol", "path_arcs", "warm_step_growth")
 
 
 def _number(cfg, key, path, positive=False):
@@ -132,7 +132,21 @@ def transfer_from_config(pc: dict, case: str, model: str, *, ephemeris: str | No
         ephemeris=ephemeris if needs_eph else None,
         max_steps=step_cap(revs, num["max_steps_per_rev"], num["min_max_steps"]) if "max_steps_per_rev" in num
         else MAX_STEPS,
-        path_rtol=case_path_rtol(cc, model, path))
+        path_rtol=case_path_rtol(cc, model, path), path_arcs=case_path_arcs(cc, model, path))
+
+
+def _per_model(cc: dict, key: str, model: str, path: str, default, read):
+    """Case option ``key``: one value for every model of the case, or a mapping {model: value}
+    (models not named, and cases without the option, get ``default``); ``read(cfg, key, path)``
+    checks a value."""
+    val = cc.get(key)
+    if not isinstance(val, dict):
+        return default if val is None else read(cc, key, path)
+    unknown = sorted(set(val) - set(cc["models"]))
+    if unknown:
+        raise ConfigError(f"{path}.{key}.{unknown[0]}", val[unknown[0]],
+                          f"not a model of the case (expected one of {', '.join(cc['models'])})")
+    return read(val, model, f"{path}.{key}") if model in val else default
 
 
 def case_path_rtol(cc: dict, model: str, path: str) -> float:
@@ -142,14 +156,20 @@ def case_path_rtol(cc: dict, model: str, path: str) -> float:
     propagated Jacobian of 4×4 + Moon + Sun is too inaccurate for Newton's corrector (‖J⁻¹ δJ‖ =
     2.5 at the converged 200-revolution extremal; 0.27 at 1e-10, 0.008 at 1e-11, measured by
     docs/experiments/path_jacobian_accuracy.py)."""
-    val = cc.get("path_rtol")
-    if not isinstance(val, dict):
-        return PATH_RTOL if val is None else _number(cc, "path_rtol", path, positive=True)
-    unknown = sorted(set(val) - set(cc["models"]))
-    if unknown:
-        raise ConfigError(f"{path}.path_rtol.{unknown[0]}", val[unknown[0]],
-                          f"not a model of the case (expected one of {', '.join(cc['models'])})")
-    return _number(val, model, f"{path}.path_rtol", positive=True) if model in val else PATH_RTOL
+    return _per_model(cc, "path_rtol", model, path, PATH_RTOL,
+                      lambda cfg, key, where: _number(cfg, key, where, positive=True))
+
+
+def case_path_arcs(cc: dict, model: str, path: str) -> int:
+    """Case option ``path_arcs`` (a number or {model: number}, like ``path_rtol``): the number
+    of shooting arcs while a homotopy path into that model is followed (1, single shooting, by
+    default; :mod:`spaceopt.indirect.multiple_shooting`)."""
+    def read(cfg, key, where):
+        val = cfg[key]
+        if isinstance(val, bool) or not isinstance(val, int) or val < 1:
+            raise ConfigError(f"{where}.{key}", val, "must be a whole number of shooting arcs >= 1")
+        return val
+    return _per_model(cc, "path_arcs", model, path, 1, read)
 
 
 # ---------------------------------------------------------------- solves
