@@ -222,6 +222,49 @@ def test_residual_step_growth_follows_a_path_with_a_small_newton_basin():
         Continuation(lambda z, t: None, ContinuationOptions(accepted_update="never"))
 
 
+def test_interrupted_tau_path_resumes_from_its_checkpoint(tmp_path):
+    """A τ path stopped part-way (here by an exception in the evaluation) resumes from its last
+    accepted point when run again with the same label and start, and takes the same steps as
+    the uninterrupted run (one extra evaluation, the restart); the file is removed at the end;
+    another start does not take the checkpoint."""
+    import numpy as np
+    from spaceopt.indirect.continuation import Checkpoint, Continuation, ContinuationOptions
+
+    calls = {"n": 0, "stop": None}
+
+    def ev(z, tau):
+        calls["n"] += 1
+        if calls["stop"] is not None and calls["n"] > calls["stop"]:
+            raise KeyboardInterrupt
+        u = 300.0 * (z[0] - np.sin(5 * tau) / 5)
+        d = 1e-4 * 300.0 / (1 + u * u)
+        return np.array([1e-4 * np.arctan(u)]), np.array([[d]]), np.array([-d * np.cos(5 * tau)]), 0, True
+
+    opt = lambda: ContinuationOptions(verbose=False, label="blend n450", checkpoint_dir=str(tmp_path / "ck"))
+    whole = Continuation(ev, ContinuationOptions(verbose=False))
+    z_whole, _ = whole.run(np.array([0.0]))
+    total = calls["n"]
+    calls.update(n=0, stop=total // 2)
+    with pytest.raises(KeyboardInterrupt):
+        Continuation(ev, opt()).run(np.array([0.0]))
+    saved = list((tmp_path / "ck").glob("*.npz"))
+    assert [p.name for p in saved] == ["blend_n450.npz"]
+    calls.update(n=0, stop=None)
+    resumed = Continuation(ev, opt())
+    z, _ = resumed.run(np.array([0.0]))
+    assert z[0] == z_whole[0]
+    assert resumed.stats.jacobians == whole.stats.jacobians + 1 and resumed.stats.steps == whole.stats.steps
+    assert calls["n"] < total
+    assert not (tmp_path / "ck").exists()
+    # a checkpoint of another start (or other end points) is not used
+    calls.update(n=0, stop=total // 2)
+    with pytest.raises(KeyboardInterrupt):
+        Continuation(ev, opt()).run(np.array([0.0]))
+    assert Checkpoint(str(tmp_path / "ck"), "blend n450", np.array([0.0]), 0.0, 1.0).load() is not None
+    assert Checkpoint(str(tmp_path / "ck"), "blend n450", np.array([1e-3]), 0.0, 1.0).load() is None
+    assert Checkpoint(str(tmp_path / "ck"), "blend n450", np.array([0.0]), 0.0, 0.5).load() is None
+
+
 def test_path_options_keep_every_option_but_the_step_sizes_of_the_other_kind():
     from spaceopt.indirect.chain import path_options
     from spaceopt.indirect.continuation import STEP_SIZES, ArclengthOptions, ContinuationOptions
@@ -345,6 +388,9 @@ def test_warm_start_options_follow_the_case_step_growth():
     pc = copy.deepcopy(PC)
     pc["cases"]["e9"]["warm_step_growth"] = "residual"
     assert P.warm_start_options(pc, "e9").step_growth == "residual"
+    assert P.warm_start_options(pc, "e9").checkpoint_dir == ""
+    resumable = P.warm_start_options(PC, "e9", checkpoint_dir="results/x.checkpoints")
+    assert resumable.checkpoint_dir == "results/x.checkpoints" and resumable.step_growth == "iterations"
     pc["cases"]["e9"]["warm_step_growth"] = "fast"
     with pytest.raises(ConfigError, match=r"perturbed\.cases\.e9\.warm_step_growth"):
         P.warm_start_options(pc, "e9")

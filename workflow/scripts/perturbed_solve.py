@@ -1,5 +1,6 @@
 """One perturbed §4.2 solve: a chain (LP -> OT) or a warm start from a neighbouring solved case
 (E6 date to date, E8 n to n, E9 model to model), with artifacts; failure.json on non-convergence."""
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -10,6 +11,16 @@ from _step import run_step  # noqa: E402
 from spaceopt import artifacts  # noqa: E402
 from spaceopt.errors import ConvergenceError  # noqa: E402
 from spaceopt.studies import perturbed as P  # noqa: E402
+
+
+def checkpoint_dir(out: Path, cfg: dict) -> Path:
+    """``<output>.checkpoints/<config hash>``; checkpoints of other configs are removed."""
+    root = out.with_suffix(".checkpoints")
+    here = root / artifacts.config_hash(cfg)[:16]
+    for other in root.glob("*"):
+        if other != here:
+            shutil.rmtree(other, ignore_errors=True)
+    return here
 
 
 def main(sm):
@@ -25,9 +36,12 @@ def main(sm):
     label = f"{case}/{model}" + (f"/{kw['epoch_utc'][:10]}" if "epoch_utc" in kw else "") + \
         (f"/n{kw['n_rev']:g}" if "n_rev" in kw else "")
     # perturbations switched on / the force model changed at a larger smoothing ε than ε_f
-    # (case options perturb_at_eps, model_step_at_eps), and the continuation step rule
-    # (warm_step_growth)
-    eps_kw = {**P.warm_start_eps(cfg, case), "options": P.warm_start_options(cfg, case)}
+    # (case options perturb_at_eps, model_step_at_eps), the continuation step rule
+    # (warm_step_growth); the warm start's τ paths save their last accepted point next to the
+    # output, under the config's hash, and a rerun after an interruption resumes from it (E8
+    # 450-500: hours); checkpoints of another config are dropped
+    eps_kw = {**P.warm_start_eps(cfg, case),
+              "options": P.warm_start_options(cfg, case, checkpoint_dir=str(checkpoint_dir(out, cfg)))}
     t0 = time.perf_counter()
     artifacts.clear_failures(out)
 

@@ -30,14 +30,22 @@ h = 7e-4, started from |F| ~ 1e-2. Never updating is no cure: the residual then 
 along the path (the test path of tests/test_perturbed_config.py stalls), and 'revert' is no
 general gain either (on that path at c = 100 it makes the iteration-count rule underflow, the
 accepted point lying at the edge of Newton's basin). At τ₁ a final Newton polish reaches
-``tol_final``. Written by hand because the corrector-driven step control and the reuse of the
+``tol_final``. ``checkpoint_dir``: the τ follower saves (z, τ, h, b) after every accepted step
+to ``<checkpoint_dir>/<label>.npz`` (atomically) and a later run of the same path (same label,
+same starting point and end points) resumes from it; the file is removed once the path is done.
+E8's lunisolar steps at 450–500 revolutions take hours. Written by hand because the corrector-driven step control and the reuse of the
 propagated Jacobian have no counterpart in optimistix/diffrax (which integrate or solve, not both).
 """
 from __future__ import annotations
 
+import hashlib
+import os
+import re
 import sys
+import tempfile
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -59,6 +67,7 @@ class ContinuationOptions:
     step_growth: str = "iterations"     # or 'residual' (module docstring)
     max_backtracks: int = 0             # damped Newton in the corrector (Continuation._correct)
     accepted_update: str = "always"     # or 'revert' (module docstring)
+    checkpoint_dir: str = ""            # resumable τ paths (module docstring); "" = none
 
 
 @dataclass
@@ -81,6 +90,49 @@ class ContinuationStats:
 GROWTH = ("iterations", "residual")
 ACCEPTED_UPDATES = ("always", "revert")
 ITERATION_GROWTH = {1: 2.0, 2: 1.5, 3: 1.2}
+
+
+def _fingerprint(z0, tau0, tau1) -> str:
+    return hashlib.sha256(np.asarray(z0, float).tobytes() + np.asarray([tau0, tau1], float).tobytes()).hexdigest()
+
+
+class Checkpoint:
+    """The last accepted point of one τ path, ``<directory>/<label>.npz``, tied to the path's
+    start (a file of another start is ignored and later overwritten)."""
+
+    def __init__(self, directory: str, label: str, z0, tau0, tau1):
+        name = re.sub(r"[^A-Za-z0-9._-]+", "_", label).strip("_") or "path"
+        self.path = Path(directory) / f"{name}.npz"
+        self.key = _fingerprint(z0, tau0, tau1)
+
+    COUNTERS = ("steps", "rejected", "jacobians", "integration_steps")
+
+    def load(self):
+        """The saved state (:meth:`save`), or None."""
+        try:
+            with np.load(self.path) as d:
+                if str(d["key"]) != self.key:
+                    return None
+                return {k: d[k].copy() for k in d.files if k != "key"}
+        except (OSError, KeyError, ValueError):
+            return None
+
+    def save(self, stats, **state):
+        """``state``: the accepted point z, the evaluated point z_eval whose f and J the next
+        predictor uses, τ, the next h and its cap, b, and the last tangent (dz, h) of the
+        second-order term: a resumed path takes the same steps as an uninterrupted one."""
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=self.path.parent, suffix=".npz")
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, key=self.key, **state, **{k: getattr(stats, k) for k in self.COUNTERS})
+        os.replace(tmp, self.path)
+
+    def remove(self):
+        self.path.unlink(missing_ok=True)
+        try:
+            self.path.parent.rmdir()
+        except OSError:
+            pass
 
 
 def _norm(v):
@@ -135,14 +187,29 @@ class Continuation:
         t_start = time.perf_counter()
         opt = self.opt
         z = np.asarray(z0, dtype=float).copy()
-        f, J, ftau, ok = self._eval(z, tau0)
-        if not ok:
-            raise self._diagnose("integration failed at the starting point", z, tau0, 0.0, f)
-        b = f.copy() if b is None else np.asarray(b, float)
         span = tau1 - tau0
-        F = f - b
         tau, h = tau0, opt.h_init * span
-        prev_tangent = checked = None
+        saved = prev_tangent = None
+        if opt.checkpoint_dir:
+            checkpoint = Checkpoint(opt.checkpoint_dir, opt.label, z, tau0, tau1)
+            saved = checkpoint.load()
+        if saved is None:
+            f, J, ftau, ok = self._eval(z, tau)
+            if not ok:
+                raise self._diagnose("integration failed at the starting point", z, tau, 0.0, f)
+            b = f.copy() if b is None else np.asarray(b, float)
+            F = f - b
+        else:       # the state after the last accepted step, its f and J re-evaluated
+            tau, h, b, self._h_cap = float(saved["tau"]), float(saved["h"]), saved["b"], float(saved["h_cap"])
+            prev_tangent = (saved["tangent"], float(saved["tangent_h"]))
+            for k in Checkpoint.COUNTERS:
+                setattr(self.stats, k, int(saved[k]))
+            f, J, ftau, ok = self._eval(saved["z_eval"], tau)
+            if not ok:
+                raise self._diagnose("integration failed at the checkpoint", saved["z_eval"], tau, h, f)
+            z, F = saved["z"], f - (1.0 - (tau - tau0) / span) * b
+            self._log(f"resumed from {checkpoint.path} at tau={tau:.6f} (h={h:.3g})")
+        checked = None
         while tau1 - tau > 1e-14 * abs(span):
             if self.stats.steps + self.stats.rejected > opt.max_steps:
                 raise self._diagnose("too many continuation steps", z, tau, h, F)
@@ -172,6 +239,9 @@ class Continuation:
                 self._log(f"tau={tau:.6f} h={h:.3g} corr={iters} |F|={nF:.2e} |dz/dtau|={_norm(dz):.2e} "
                           f"jac={self.stats.jacobians}")
                 h = self._grow(h, iters, nF, opt.h_max * abs(span))
+                if opt.checkpoint_dir:
+                    checkpoint.save(self.stats, z=z, z_eval=zt, tau=tau, h=h, b=b, h_cap=self._h_cap,
+                                    tangent=prev_tangent[0], tangent_h=prev_tangent[1])
             else:
                 self._reject(tau, h)
                 h *= 0.3
@@ -184,7 +254,10 @@ class Continuation:
         if self.polish is not self.evaluate:
             f, J, ftau, ok = self._eval(z, tau1, final=True)
             F = f
-        return self._polish(z, J, F, tau1, h, t_start, _solve, "done")
+        out = self._polish(z, J, F, tau1, h, t_start, _solve, "done")
+        if opt.checkpoint_dir:
+            checkpoint.remove()
+        return out
 
     def _grow(self, h, iters, nF, h_max):
         """The step after an accepted step h whose corrector used ``iters`` evaluations and whose

@@ -299,16 +299,17 @@ def warm_start_eps(pc: dict, case: str) -> dict:
     return {"eps_smooth": perturb_at_eps(pc, case), "model_step_eps": perturb_at_eps(pc, case, "model_step_at_eps")}
 
 
-def warm_start_options(pc: dict, case: str) -> ContinuationOptions | None:
+def warm_start_options(pc: dict, case: str, checkpoint_dir: str = "") -> ContinuationOptions | None:
     """Continuation options of the case's warm starts (:func:`warm_start`): case option
-    ``warm_step_growth`` ('iterations' | 'residual', :mod:`spaceopt.indirect.continuation`),
-    None (the followers' defaults) where the case leaves it out."""
+    ``warm_step_growth`` ('iterations' | 'residual', :mod:`spaceopt.indirect.continuation`) and
+    ``checkpoint_dir`` (τ paths resumable after an interruption, ``ContinuationOptions``);
+    None (the followers' defaults) where neither is given."""
     growth = pc["cases"][case].get("warm_step_growth")
-    if growth is None:
+    if growth is None and not checkpoint_dir:
         return None
-    if growth not in GROWTH:
+    if growth is not None and growth not in GROWTH:
         raise ConfigError(f"perturbed.cases.{case}.warm_step_growth", growth, f"expected one of {', '.join(GROWTH)}")
-    return ContinuationOptions(step_growth=growth)
+    return ContinuationOptions(**({"step_growth": growth} if growth else {}), checkpoint_dir=checkpoint_dir)
 
 
 def perturbation_switch(tr: Transfer) -> Shooting:
