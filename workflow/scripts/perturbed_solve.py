@@ -78,6 +78,7 @@ def main(sm):
         raise
     P.save(sol, out, cfg, time.perf_counter() - t0, extra,
            samples_per_rev=cfg["numerics"]["samples_per_rev"])
+    shutil.rmtree(out.with_suffix(".checkpoints"), ignore_errors=True)   # solved: none needed
 
 
 if __name__ == "__main__":
