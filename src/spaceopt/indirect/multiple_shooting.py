@@ -7,15 +7,16 @@ accurate). Multiple shooting (spec 01-methods §3.1 names shooting only; this is
 cure, Stoer & Bulirsch §7.3.5) cuts the range at fixed nodes 0 < K₁ < … < K_{M−1} < K_f and
 adds the full state-costate vector y_j at every inner node to the unknowns:
 
-    Z = (z, y₁, …, y_{M−1}),   z = the single-shooting unknowns (costates at K = 0, K_f),
+    Z = (z, w₁ ⊙ y₁, …, w_{M−1} ⊙ y_{M−1}),   z = the single-shooting unknowns (costates at K = 0, K_f),
 
     F(Z, τ) = ( p_LK(0) + H(0),
                 w₁ ⊙ (y(K₁; y(0; z)) − y₁), …, w_{M−1} ⊙ (y(K_{M−1}; y_{M−2}) − y_{M−1}),
                 terminal residual of y(K_f; y_{M−1}) ),
 
-each arc integrated from its own node, so each sensitivity matrix spans only K_f/M. The rows
-are scaled by fixed weights w_j = 1/max(1, |y_j|) of the starting nodes (t grows to ~2000 time
-units over E8: its continuity is measured relatively). The nodes stay fixed while K_f moves (the
+each arc integrated from its own node, so each sensitivity matrix spans only K_f/M. Rows and
+node unknowns are scaled by fixed weights w_j = 1/max(1, |y_j|) of the starting nodes (t grows
+to ~2000 time units over E8: its continuity is measured relatively, and the arclength of a
+path in Z is not dominated by the node times; Newton's steps do not depend on the scaling). The nodes stay fixed while K_f moves (the
 last arc ends at K_f); the K_f column is g(K_f) of the last arc, as in single shooting. At
 τ = 1 the first block of Z is a single-shooting solution: the same extremal, returned in the
 single-shooting layout so that everything downstream is unchanged.
@@ -64,13 +65,13 @@ def node_positions(K_f: float, arcs: int) -> np.ndarray:
 
 
 def start_nodes(ms: MultipleShooting, z, tau, prm, nodes):
-    """Z from a single-shooting point z: y at the nodes of the trajectory through z at τ, and the
-    continuity weights 1/max(1, |y_j|)."""
+    """Z from a single-shooting point z: the scaled y at the nodes of the trajectory through z at
+    τ, and the weights 1/max(1, |y_j|)."""
     sh = ms.single
     y0 = initial_state(sh, jnp.asarray(z), params_at(sh.model, prm, tau))
     ys = np.asarray(_through_nodes(sh.model, y0, jnp.asarray(nodes), tau, prm, sh.rtol, sh.atol, sh.max_steps))
-    Z = np.concatenate([np.asarray(z, float), ys.ravel()])
-    return Z, 1.0 / np.maximum(1.0, np.abs(ys))
+    weights = 1.0 / np.maximum(1.0, np.abs(ys))
+    return np.concatenate([np.asarray(z, float), (weights * ys).ravel()]), weights
 
 
 @partial(jax.jit, static_argnums=(0, 7))
@@ -95,7 +96,7 @@ def _shoot(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol, atol):
     sh, M, w = ms.single, ms.arcs, ms.width
     s, kf = sh.size, sh.kf_index
     z, Kf = Z[:s], Z[kf]
-    ys = Z[s:].reshape(M - 1, w)
+    ys = Z[s:].reshape(M - 1, w) / weights
 
     z_nokf = jnp.delete(z, kf, assume_unique_indices=True)
 
@@ -123,6 +124,7 @@ def _shoot(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol, atol):
         J_cont = J_cont.at[j * w:(j + 1) * w, s + (j - 1) * w:s + j * w].set(Phi[j][:, :w])
     J_cont = weights.reshape(-1, 1) * J_cont
     J_cont = J_cont.at[:, s:].add(-jnp.diag(weights.ravel()))
+    J_cont = J_cont.at[:, s:].divide(weights.ravel())          # columns: the scaled node unknowns
     cont = (weights * (yend[:-1] - ys)).ravel()
     cont_tau = (weights * Phi[:-1, :, -1]).ravel()
 
@@ -135,7 +137,7 @@ def _shoot(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol, atol):
     dr_dy, dr_dK, dr_dtau = jax.jacfwd(term, argnums=(0, 1, 2))(yf, Kf, tau)
     gf = field(sh.model, Kf, yf, tau, prm)
     J_term = jnp.zeros((r_term.shape[0], ms.size))
-    J_term = J_term.at[:, s + (M - 2) * w:].set(dr_dy @ Phi[-1][:, :w])
+    J_term = J_term.at[:, s + (M - 2) * w:].set(dr_dy @ Phi[-1][:, :w] / weights[-1])
     J_term = J_term.at[:, kf].add(dr_dy @ gf + dr_dK)
     f_term_tau = dr_dy @ Phi[-1][:, -1] + dr_dtau
 
