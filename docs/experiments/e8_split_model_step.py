@@ -8,13 +8,21 @@ artifact of the DAG (``results/perturbed/e8/j2_n<n>.json``): each half by
 where it stalls), with the full model's path rtol (1e-11) for both halves, and prints each
 half's Jacobian count, wall time, m_p and Δt. Nothing is written under results/.
 
+``--start FILE``: start from another artifact (e.g. a saved 4×4 solution: then only the second
+half runs); ``--arcs M``: paths followed by multiple shooting over M arcs (case option
+``path_arcs``); ``--checkpoints DIR``: τ paths resumable (``ContinuationOptions.checkpoint_dir``);
+``--step-growth residual --revert``: the step rules of ``ContinuationOptions``.
+
 Usage (repository root, after the J2 artifact exists):
     python docs/experiments/e8_split_model_step.py 300
+    python docs/experiments/e8_split_model_step.py 500 --start g44_n500.json --arcs 10 \
+        --checkpoints /tmp/e8_ck --step-growth residual --revert
 """
 import argparse
 import time
 
 from spaceopt.config import load_yaml
+from spaceopt.indirect.continuation import ContinuationOptions
 from spaceopt.studies import perturbed as P, trajectory
 
 SPLIT = ("j2", "g44", "g44_moon_sun")
@@ -24,16 +32,25 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("n_rev", type=float)
     ap.add_argument("--path-rtol", type=float, default=1e-11)
+    ap.add_argument("--start", help="start artifact (default results/perturbed/e8/j2_n<n>.json)")
+    ap.add_argument("--arcs", type=int, default=1)
+    ap.add_argument("--checkpoints", default="")
+    ap.add_argument("--step-growth", default="iterations")
+    ap.add_argument("--revert", action="store_true")
     a = ap.parse_args()
     pc = load_yaml("config/studies/perturbed.yaml")["perturbed"]
-    pc["cases"]["e8"] = {**pc["cases"]["e8"], "models": ["unperturbed", *SPLIT], "path_rtol": a.path_rtol}
+    pc["cases"]["e8"] = {**pc["cases"]["e8"], "models": ["unperturbed", *SPLIT], "path_rtol": a.path_rtol,
+                         "path_arcs": a.arcs}
     eph = P.ephemeris_path("results", pc["cases"]["e8"]["ephemeris"])
-    sol = P.load(f"results/perturbed/e8/j2_n{a.n_rev:g}.json")
+    sol = P.load(a.start or f"results/perturbed/e8/j2_n{a.n_rev:g}.json")
+    options = ContinuationOptions(step_growth=a.step_growth, checkpoint_dir=a.checkpoints,
+                                  accepted_update="revert" if a.revert else "always")
     m0 = sol.transfer.m0
-    for model in SPLIT[1:]:
+    start_model = next(m for m in SPLIT if pc["models"][m] == (sol.transfer.perturbations or None))
+    for model in SPLIT[SPLIT.index(start_model) + 1:]:
         tr = P.transfer_from_config(pc, "e8", model, ephemeris=eph, n_rev=a.n_rev)
         t0 = time.perf_counter()
-        sol = P.warm_start(sol, tr, f"e8 split -> {model} n{a.n_rev:g}")
+        sol = P.warm_start(sol, tr, f"e8 split -> {model} n{a.n_rev:g}", options=options)
         s = P.multirev.scalars(sol, trajectory.sample(sol, 20))
         print(f"{model}: {sol.stats.get('jacobian_evaluations')} Jacobians, {time.perf_counter() - t0:.0f} s, "
               f"path {sol.stats.get('warm_path')}, m_p = {m0 - s['m_f_kg']:.4f} kg, "
