@@ -265,6 +265,36 @@ def test_interrupted_tau_path_resumes_from_its_checkpoint(tmp_path):
     assert Checkpoint(str(tmp_path / "ck"), "blend n450", np.array([0.0]), 0.0, 0.5).load() is None
 
 
+def test_interrupted_arclength_path_resumes_with_the_same_steps(tmp_path):
+    """The arclength follower through the fold of z³ − 3z = −2 + 6τ, stopped part-way and run
+    again: same end point, same steps, no more evaluations than the uninterrupted run."""
+    import numpy as np
+    from spaceopt.indirect.continuation import ArclengthContinuation, ArclengthOptions
+
+    calls = {"n": 0, "stop": None}
+
+    def ev(z, tau):
+        calls["n"] += 1
+        if calls["stop"] is not None and calls["n"] > calls["stop"]:
+            raise KeyboardInterrupt
+        return (np.atleast_1d(z**3 - 3 * z + 2 - 6 * tau), np.array([[3 * z[0] ** 2 - 3]]),
+                np.array([-6.0]), 0, True)
+
+    opt = ArclengthOptions(verbose=False, label="fold", checkpoint_dir=str(tmp_path))
+    whole = ArclengthContinuation(ev, ArclengthOptions(verbose=False))
+    z_whole, _ = whole.run(np.array([-2.0]))
+    total = calls["n"]
+    calls.update(n=0, stop=total // 2)
+    with pytest.raises(KeyboardInterrupt):
+        ArclengthContinuation(ev, opt).run(np.array([-2.0]))
+    calls.update(n=0, stop=None)
+    resumed = ArclengthContinuation(ev, opt)
+    z, _ = resumed.run(np.array([-2.0]))
+    assert z[0] == z_whole[0] and resumed.stats.steps == whole.stats.steps
+    assert resumed.stats.jacobians == whole.stats.jacobians and calls["n"] < total
+    assert not (tmp_path / "fold.npz").exists()
+
+
 def test_path_options_keep_every_option_but_the_step_sizes_of_the_other_kind():
     from spaceopt.indirect.chain import path_options
     from spaceopt.indirect.continuation import STEP_SIZES, ArclengthOptions, ContinuationOptions

@@ -10,7 +10,7 @@ half's Jacobian count, wall time, m_p and Δt. Nothing is written under results/
 
 ``--start FILE``: start from another artifact (e.g. a saved 4×4 solution: then only the second
 half runs); ``--arcs M``: paths followed by multiple shooting over M arcs (case option
-``path_arcs``); ``--checkpoints DIR``: τ paths resumable (``ContinuationOptions.checkpoint_dir``);
+``path_arcs``); ``--checkpoints DIR``: paths resumable (``ContinuationOptions.checkpoint_dir``);
 ``--step-growth residual --revert``: the step rules of ``ContinuationOptions``.
 
 Usage (repository root, after the J2 artifact exists):

@@ -30,9 +30,10 @@ h = 7e-4, started from |F| ~ 1e-2. Never updating is no cure: the residual then 
 along the path (the test path of tests/test_perturbed_config.py stalls), and 'revert' is no
 general gain either (on that path at c = 100 it makes the iteration-count rule underflow, the
 accepted point lying at the edge of Newton's basin). At τ₁ a final Newton polish reaches
-``tol_final``. ``checkpoint_dir``: the τ follower saves (z, τ, h, b) after every accepted step
+``tol_final``. ``checkpoint_dir``: both followers save their state after every accepted step
 to ``<checkpoint_dir>/<label>.npz`` (atomically) and a later run of the same path (same label,
-same starting point and end points) resumes from it; the file is removed once the path is done.
+same starting point and end points) resumes from it with the same steps; the file is removed
+once the path is done (and the directory, once empty).
 E8's lunisolar steps at 450–500 revolutions take hours. Written by hand because the corrector-driven step control and the reuse of the
 propagated Jacobian have no counterpart in optimistix/diffrax (which integrate or solve, not both).
 """
@@ -67,7 +68,7 @@ class ContinuationOptions:
     step_growth: str = "iterations"     # or 'residual' (module docstring)
     max_backtracks: int = 0             # damped Newton in the corrector (Continuation._correct)
     accepted_update: str = "always"     # or 'revert' (module docstring)
-    checkpoint_dir: str = ""            # resumable τ paths (module docstring); "" = none
+    checkpoint_dir: str = ""            # resumable paths (module docstring); "" = none
 
 
 @dataclass
@@ -165,6 +166,20 @@ class Continuation:
         self._h_cap = float("inf")      # 0.8 of the last rejected step ('residual' growth)
         self.last_rejection = ""        # why the corrector gave up last (_correct)
 
+    def _resume(self, z0, tau0, tau1):
+        """(checkpoint, saved state or None) of this path (``checkpoint_dir``; (None, None) without
+        one); a saved state also restores the counters and the step cap."""
+        if not self.opt.checkpoint_dir:
+            return None, None
+        checkpoint = Checkpoint(self.opt.checkpoint_dir, self.opt.label, z0, tau0, tau1)
+        saved = checkpoint.load()
+        if saved is not None:
+            for k in Checkpoint.COUNTERS:
+                setattr(self.stats, k, int(saved[k]))
+            self._h_cap = float(saved["h_cap"])
+            self._log(f"resumed from {checkpoint.path} at tau={float(saved['tau']):.6f} (h={float(saved['h']):.3g})")
+        return checkpoint, saved
+
     def _eval(self, z, tau, final=False):
         f, J, ftau, nsteps, ok = (self.polish if final else self.evaluate)(z, tau)
         self.stats.jacobians += 1
@@ -189,10 +204,8 @@ class Continuation:
         z = np.asarray(z0, dtype=float).copy()
         span = tau1 - tau0
         tau, h = tau0, opt.h_init * span
-        saved = prev_tangent = None
-        if opt.checkpoint_dir:
-            checkpoint = Checkpoint(opt.checkpoint_dir, opt.label, z, tau0, tau1)
-            saved = checkpoint.load()
+        prev_tangent = None
+        checkpoint, saved = self._resume(z, tau0, tau1)
         if saved is None:
             f, J, ftau, ok = self._eval(z, tau)
             if not ok:
@@ -200,15 +213,12 @@ class Continuation:
             b = f.copy() if b is None else np.asarray(b, float)
             F = f - b
         else:       # the state after the last accepted step, its f and J re-evaluated
-            tau, h, b, self._h_cap = float(saved["tau"]), float(saved["h"]), saved["b"], float(saved["h_cap"])
+            tau, h, b = float(saved["tau"]), float(saved["h"]), saved["b"]
             prev_tangent = (saved["tangent"], float(saved["tangent_h"]))
-            for k in Checkpoint.COUNTERS:
-                setattr(self.stats, k, int(saved[k]))
             f, J, ftau, ok = self._eval(saved["z_eval"], tau)
             if not ok:
                 raise self._diagnose("integration failed at the checkpoint", saved["z_eval"], tau, h, f)
             z, F = saved["z"], f - (1.0 - (tau - tau0) / span) * b
-            self._log(f"resumed from {checkpoint.path} at tau={tau:.6f} (h={h:.3g})")
         checked = None
         while tau1 - tau > 1e-14 * abs(span):
             if self.stats.steps + self.stats.rejected > opt.max_steps:
@@ -239,7 +249,7 @@ class Continuation:
                 self._log(f"tau={tau:.6f} h={h:.3g} corr={iters} |F|={nF:.2e} |dz/dtau|={_norm(dz):.2e} "
                           f"jac={self.stats.jacobians}")
                 h = self._grow(h, iters, nF, opt.h_max * abs(span))
-                if opt.checkpoint_dir:
+                if checkpoint:
                     checkpoint.save(self.stats, z=z, z_eval=zt, tau=tau, h=h, b=b, h_cap=self._h_cap,
                                     tangent=prev_tangent[0], tangent_h=prev_tangent[1])
             else:
@@ -255,7 +265,7 @@ class Continuation:
             f, J, ftau, ok = self._eval(z, tau1, final=True)
             F = f
         out = self._polish(z, J, F, tau1, h, t_start, _solve, "done")
-        if opt.checkpoint_dir:
+        if checkpoint:
             checkpoint.remove()
         return out
 
@@ -381,10 +391,14 @@ class ArclengthContinuation(Continuation):
         opt = self.opt
         z = np.asarray(z0, dtype=float).copy()
         tau = 0.0
-        f, J, ftau, ok = self._eval(z, tau)
-        if not ok:
-            raise self._diagnose("integration failed at the starting point", z, tau, 0.0, f)
-        b = f.copy() if b is None else np.asarray(b, float)
+        checkpoint, saved = self._resume(z, 0.0, 1.0)
+        if saved is None:
+            f, J, ftau, ok = self._eval(z, tau)
+            if not ok:
+                raise self._diagnose("integration failed at the starting point", z, tau, 0.0, f)
+            b = f.copy() if b is None else np.asarray(b, float)
+        else:       # the point, tangent and step after the last accepted step (no re-evaluation)
+            b = saved["b"]
         n = z.size
 
         def tangent(J, ftau, prev=None):
@@ -394,8 +408,11 @@ class ArclengthContinuation(Continuation):
                 t = -t
             return t
 
-        t = tangent(J, ftau)
-        h, F = opt.h_init, f - b
+        if saved is None:
+            t = tangent(J, ftau)
+            h, F = opt.h_init, f - b
+        else:
+            z, tau, t, h, F = saved["z"], float(saved["tau"]), saved["tangent"], float(saved["h"]), saved["F"]
         while True:
             if self.stats.steps + self.stats.rejected > opt.max_steps:
                 raise self._diagnose("too many continuation steps", z, tau, h, F)
@@ -431,7 +448,12 @@ class ArclengthContinuation(Continuation):
             self._log(f"s-step {self.stats.steps}: tau={tau:.6f} h={h:.3g} corr={iters} |F|={nF:.2e} "
                       f"dtau/ds={t[-1]:+.3f} jac={self.stats.jacobians}")
             h = self._grow(h, iters, nF, opt.h_max)
+            if checkpoint:
+                checkpoint.save(self.stats, z=z, tau=tau, tangent=t, h=h, b=b, F=F, h_cap=self._h_cap)
         # polish at τ = 1
         f, J, ftau, ok = self._eval(z, 1.0, final=True)
-        return self._polish(z, J, f, 1.0, h, t_start, lambda J, r: np.linalg.lstsq(J, r, rcond=None)[0],
-                            "done (arclength)")
+        out = self._polish(z, J, f, 1.0, h, t_start, lambda J, r: np.linalg.lstsq(J, r, rcond=None)[0],
+                           "done (arclength)")
+        if checkpoint:
+            checkpoint.remove()
+        return out

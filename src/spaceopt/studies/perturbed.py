@@ -302,7 +302,7 @@ def warm_start_eps(pc: dict, case: str) -> dict:
 def warm_start_options(pc: dict, case: str, checkpoint_dir: str = "") -> ContinuationOptions | None:
     """Continuation options of the case's warm starts (:func:`warm_start`): case option
     ``warm_step_growth`` ('iterations' | 'residual', :mod:`spaceopt.indirect.continuation`) and
-    ``checkpoint_dir`` (τ paths resumable after an interruption, ``ContinuationOptions``);
+    ``checkpoint_dir`` (paths resumable after an interruption, ``ContinuationOptions``);
     None (the followers' defaults) where neither is given."""
     growth = pc["cases"][case].get("warm_step_growth")
     if growth is None and not checkpoint_dir:
