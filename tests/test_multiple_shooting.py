@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import yaml
 
+from spaceopt.errors import ConvergenceError
 from spaceopt.indirect import chain
 from spaceopt.indirect import multiple_shooting as ms_
 from spaceopt.indirect.shooting import shoot
@@ -67,9 +68,13 @@ def test_split_map_jacobian_matches_central_differences(blend):
     assert np.max(np.abs(np.asarray(ftau) - ftau_fd)) < 1e-4 * max(1.0, np.max(np.abs(ftau_fd)))
 
 
-def test_one_arc_is_refused(blend):
+def test_one_arc_and_a_start_that_does_not_integrate_are_refused(blend):
     with pytest.raises(ValueError, match="at least 2 arcs"):
         ms_.MultipleShooting(blend["sh"], 1)
+    bad = blend["z"].copy()
+    bad[:-1] *= 10.0                   # costates that blow the trajectory up before the first node
+    with pytest.raises(ConvergenceError, match="does not reach the last node"):
+        ms_.start_nodes(blend["ms"], bad, blend["tau"], blend["prm"], blend["nodes"])
 
 
 def test_continuation_by_multiple_shooting_lands_on_the_single_shooting_extremal():

@@ -1,11 +1,10 @@
 """Multiple shooting: the single-shooting map of :mod:`.shooting` split into M arcs in K.
 
-Single shooting over hundreds of revolutions has a tiny Newton basin: the end state depends on
-the initial costates through a product of hundreds of revolution maps (E8, 450 revolutions,
-4×4 → 4×4 + Moon: cond ∂f/∂z = 4e7, Newton diverges from |f| ≳ 2e-4 although the Jacobian is
-accurate). Multiple shooting (spec 01-methods §3.1 names shooting only; this is the textbook
-cure, Stoer & Bulirsch §7.3.5) cuts the range at fixed nodes 0 < K₁ < … < K_{M−1} < K_f and
-adds the full state-costate vector y_j at every inner node to the unknowns:
+Over hundreds of revolutions the end state depends on the initial costates through a product
+of hundreds of revolution maps (E8, 450 revolutions: cond ∂f/∂z = 4e7). Multiple shooting
+(the dissertation shoots over one arc, spec 01-methods §3.1; this is the textbook remedy,
+Stoer & Bulirsch §7.3.5) cuts the range at fixed nodes 0 < K₁ < … < K_{M−1} < K_f and adds the
+full state-costate vector y_j at every inner node to the unknowns:
 
     Z = (z, w₁ ⊙ y₁, …, w_{M−1} ⊙ y_{M−1}),   z = the single-shooting unknowns (costates at K = 0, K_f),
 
@@ -16,10 +15,13 @@ adds the full state-costate vector y_j at every inner node to the unknowns:
 each arc integrated from its own node, so each sensitivity matrix spans only K_f/M. Rows and
 node unknowns are scaled by fixed weights w_j = 1/max(1, |y_j|) of the starting nodes (t grows
 to ~2000 time units over E8: its continuity is measured relatively, and the arclength of a
-path in Z is not dominated by the node times; Newton's steps do not depend on the scaling). The nodes stay fixed while K_f moves (the
-last arc ends at K_f); the K_f column is g(K_f) of the last arc, as in single shooting. At
-τ = 1 the first block of Z is a single-shooting solution: the same extremal, returned in the
-single-shooting layout so that everything downstream is unchanged.
+path in Z is not dominated by the node times; Newton's steps do not depend on the scaling).
+The nodes stay fixed while K_f moves (the last arc ends at K_f); the K_f column is g(K_f) of
+the last arc, as in single shooting. At τ = 1 the first block of Z is a single-shooting
+solution: the same extremal, returned in the single-shooting layout so that everything
+downstream is unchanged. Measured on E8's lunisolar blend at 450–500 revolutions (10 arcs):
+1.5–3× longer continuation steps than single shooting, but Newton's basin stays small there
+(docs/perturbed-e6-e7-e8.md, "seventh session").
 
 Sensitivities: every arc carries Φ with 2n + 1 columns (∂/∂y_j and the τ column; the first arc
 ∂/∂(free costates) padded with zeros), so all arcs are one ``jax.vmap`` of the single-arc
@@ -35,6 +37,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..errors import ConvergenceError
 from .flow import field, params_at, propagate_with_sensitivities
 from .shooting import Shooting, initial_state, terminal_residual, transversality
 
@@ -69,7 +72,11 @@ def start_nodes(ms: MultipleShooting, z, tau, prm, nodes):
     τ, and the weights 1/max(1, |y_j|)."""
     sh = ms.single
     y0 = initial_state(sh, jnp.asarray(z), params_at(sh.model, prm, tau))
-    ys = np.asarray(_through_nodes(sh.model, y0, jnp.asarray(nodes), tau, prm, sh.rtol, sh.atol, sh.max_steps))
+    ys, ok = _through_nodes(sh.model, y0, jnp.asarray(nodes), tau, prm, sh.rtol, sh.atol, sh.max_steps)
+    if not bool(ok):
+        raise ConvergenceError("multiple shooting: the trajectory through the starting point does not "
+                               f"reach the last node (K = {float(nodes[-1]):.6g})", {"z": np.asarray(z).tolist()})
+    ys = np.asarray(ys)
     weights = 1.0 / np.maximum(1.0, np.abs(ys))
     return np.concatenate([np.asarray(z, float), (weights * ys).ravel()]), weights
 
@@ -80,8 +87,8 @@ def _through_nodes(model, y0, nodes, tau, prm, rtol, atol, max_steps):
         diffrax.ODETerm(lambda K, y, args: field(model, K, y, tau, args)), diffrax.Dopri8(),
         0.0, nodes[-1], None, y0, args=prm,
         stepsize_controller=diffrax.PIDController(rtol=rtol, atol=atol),
-        saveat=diffrax.SaveAt(ts=nodes), max_steps=max_steps)
-    return out.ys
+        saveat=diffrax.SaveAt(ts=nodes), max_steps=max_steps, throw=False)
+    return out.ys, out.result == diffrax.RESULTS.successful
 
 
 def shoot(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol=None, atol=None):
