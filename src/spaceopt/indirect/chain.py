@@ -116,10 +116,16 @@ def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None, path
     if sh.path_arcs > 1:
         return _run_multiple(sh, z0, prm, label, options, path, sh.path_arcs)
     opt = path_options(path, options, label)
-    rtol, atol = max(sh.rtol, sh.path_rtol), max(sh.atol, sh.path_rtol * 0.1)
+    rtol, atol = _path_tolerances(sh)
     cont = PATHS[path](lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm, rtol, atol), opt,
                        polish=lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm))
     return _follow(cont, z0, path)
+
+
+def _path_tolerances(sh: Shooting):
+    """Integration (rtol, atol) while a path is followed: the path rtol, never tighter than the
+    end-point tolerances."""
+    return max(sh.rtol, sh.path_rtol), max(sh.atol, sh.path_rtol * 0.1)
 
 
 def _follow(cont, z0, path, tau0=0.0):
@@ -140,7 +146,7 @@ def _run_multiple(sh: Shooting, z0, prm, label, options, path, arcs):
     nodes = jnp.asarray(node_positions(float(z0[sh.kf_index]), arcs))
     Z0, weights = start_nodes(ms, z0, 0.0, prm, nodes)
     weights = jnp.asarray(weights)
-    rtol, atol = max(sh.rtol, sh.path_rtol), max(sh.atol, sh.path_rtol * 0.1)
+    rtol, atol = _path_tolerances(sh)
     opt = path_options(path, options, f"{label} ({arcs} arcs)")
     cont = PATHS[path](lambda Z, tau: multiple_shoot(ms, jnp.asarray(Z), tau, prm, nodes, weights, rtol, atol),
                        opt, polish=lambda Z, tau: multiple_shoot(ms, jnp.asarray(Z), tau, prm, nodes, weights))

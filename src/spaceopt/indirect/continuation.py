@@ -33,9 +33,10 @@ accepted point lying at the edge of Newton's basin). At τ₁ a final Newton pol
 ``tol_final``. ``checkpoint_dir``: both followers save their state after every accepted step
 to ``<checkpoint_dir>/<label>.npz`` (atomically) and a later run of the same path (same label,
 same starting point and end points) resumes from it with the same steps; the file is removed
-once the path is done (and the directory, once empty).
-E8's lunisolar steps at 450–500 revolutions take hours. Written by hand because the corrector-driven step control and the reuse of the
-propagated Jacobian have no counterpart in optimistix/diffrax (which integrate or solve, not both).
+once the path is done (and the directory, once empty): E8's lunisolar steps at 450–500
+revolutions take hours. Written by hand because the corrector-driven step control and the
+reuse of the propagated Jacobian have no counterpart in optimistix/diffrax (which integrate or
+solve, not both).
 """
 from __future__ import annotations
 
@@ -98,15 +99,16 @@ def _fingerprint(z0, tau0, tau1) -> str:
 
 
 class Checkpoint:
-    """The last accepted point of one τ path, ``<directory>/<label>.npz``, tied to the path's
-    start (a file of another start is ignored and later overwritten)."""
+    """The state after the last accepted step of one path (τ or arclength follower),
+    ``<directory>/<label>.npz``, tied to the path's start (a file of another start is ignored
+    and later overwritten)."""
+
+    COUNTERS = ("steps", "rejected", "jacobians", "integration_steps")
 
     def __init__(self, directory: str, label: str, z0, tau0, tau1):
         name = re.sub(r"[^A-Za-z0-9._-]+", "_", label).strip("_") or "path"
         self.path = Path(directory) / f"{name}.npz"
         self.key = _fingerprint(z0, tau0, tau1)
-
-    COUNTERS = ("steps", "rejected", "jacobians", "integration_steps")
 
     def load(self):
         """The saved state (:meth:`save`), or None."""

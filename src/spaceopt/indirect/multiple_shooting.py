@@ -39,7 +39,8 @@ import numpy as np
 
 from ..errors import ConvergenceError
 from .flow import field, params_at, propagate_with_sensitivities
-from .shooting import Shooting, initial_state, terminal_residual, transversality
+from .shooting import (Shooting, initial_state, start_with_sensitivities, terminal_with_derivatives,
+                       transversality_with_derivatives)
 
 
 @dataclass(frozen=True)
@@ -105,13 +106,7 @@ def _shoot(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol, atol):
     z, Kf = Z[:s], Z[kf]
     ys = Z[s:].reshape(M - 1, w) / weights
 
-    z_nokf = jnp.delete(z, kf, assume_unique_indices=True)
-
-    def y0_of(znk, t):
-        return initial_state(sh, jnp.insert(znk, kf, Kf), params_at(sh.model, prm, t))
-
-    y0 = y0_of(z_nokf, tau)
-    dy0_dz, dy0_dtau = jax.jacfwd(y0_of, argnums=(0, 1))(z_nokf, tau)
+    y0, dy0_dz, dy0_dtau = start_with_sensitivities(sh, z, tau, prm)
     first = jnp.zeros((w, w + 1)).at[:, :s - 1].set(dy0_dz).at[:, -1].set(dy0_dtau)
     inner = jnp.broadcast_to(jnp.eye(w, w + 1), (M - 1, w, w + 1))
     Y0 = jnp.concatenate([y0[None], ys])
@@ -136,20 +131,15 @@ def _shoot(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol, atol):
     cont_tau = (weights * Phi[:-1, :, -1]).ravel()
 
     # terminal rows from the last arc
-    def term(yy, kk, t):
-        return terminal_residual(sh, yy, kk, params_at(sh.model, prm, t), t)
-
     yf = yend[-1]
-    r_term = term(yf, Kf, tau)
-    dr_dy, dr_dK, dr_dtau = jax.jacfwd(term, argnums=(0, 1, 2))(yf, Kf, tau)
+    r_term, dr_dy, dr_dK, dr_dtau = terminal_with_derivatives(sh, yf, Kf, tau, prm)
     gf = field(sh.model, Kf, yf, tau, prm)
     J_term = jnp.zeros((r_term.shape[0], ms.size))
     J_term = J_term.at[:, s + (M - 2) * w:].set(dr_dy @ Phi[-1][:, :w] / weights[-1])
     J_term = J_term.at[:, kf].add(dr_dy @ gf + dr_dK)
     f_term_tau = dr_dy @ Phi[-1][:, -1] + dr_dtau
 
-    r0 = transversality(sh, z, tau, prm)
-    dr0_dz, dr0_dtau = jax.jacfwd(lambda zz, tt: transversality(sh, zz, tt, prm), argnums=(0, 1))(z, tau)
+    r0, dr0_dz, dr0_dtau = transversality_with_derivatives(sh, z, tau, prm)
     J0 = jnp.zeros(ms.size).at[:s].set(dr0_dz)
 
     f = jnp.concatenate([jnp.atleast_1d(r0), cont, r_term])

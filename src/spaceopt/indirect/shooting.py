@@ -114,33 +114,47 @@ def shoot(sh: Shooting, z, tau, prm, rtol=None, atol=None):
     return _shoot(sh, z, tau, prm, sh.rtol if rtol is None else rtol, sh.atol if atol is None else atol)
 
 
-@partial(jax.jit, static_argnums=0)
-def _shoot(sh: Shooting, z, tau, prm, rtol, atol):
+def start_with_sensitivities(sh: Shooting, z, tau, prm):
+    """y(0) and its derivatives ∂y(0)/∂(z without K_f) (columns in the order of z) and ∂y(0)/∂τ."""
     kf = sh.kf_index
-    z_nokf = jnp.delete(z, kf, assume_unique_indices=True)
 
     def y0_of(znk, t):
         return initial_state(sh, jnp.insert(znk, kf, z[kf]), params_at(sh.model, prm, t))
 
-    y0 = y0_of(z_nokf, tau)
-    dy0_dz, dy0_dtau = jax.jacfwd(y0_of, argnums=(0, 1))(z_nokf, tau)
+    z_nokf = jnp.delete(z, kf, assume_unique_indices=True)
+    return (y0_of(z_nokf, tau), *jax.jacfwd(y0_of, argnums=(0, 1))(z_nokf, tau))
+
+
+def terminal_with_derivatives(sh: Shooting, yf, Kf, tau, prm):
+    """The terminal residual at y(K_f) and its derivatives in y(K_f), K_f and τ."""
+    def term(yy, kk, t):
+        return terminal_residual(sh, yy, kk, params_at(sh.model, prm, t), t)
+    return (term(yf, Kf, tau), *jax.jacfwd(term, argnums=(0, 1, 2))(yf, Kf, tau))
+
+
+def transversality_with_derivatives(sh: Shooting, z, tau, prm):
+    """p_LK(0) + H(0) and its derivatives in z and τ."""
+    def r0(zz, tt):
+        return transversality(sh, zz, tt, prm)
+    return (r0(z, tau), *jax.jacfwd(r0, argnums=(0, 1))(z, tau))
+
+
+@partial(jax.jit, static_argnums=0)
+def _shoot(sh: Shooting, z, tau, prm, rtol, atol):
+    kf = sh.kf_index
+    y0, dy0_dz, dy0_dtau = start_with_sensitivities(sh, z, tau, prm)
     Phi0 = jnp.concatenate([dy0_dz, dy0_dtau[:, None]], axis=1)
     yf, Phif, nsteps, ok = propagate_with_sensitivities(
         sh.model, y0, Phi0, z[kf], tau, prm, rtol, atol, sh.max_steps)
     gf = field(sh.model, z[kf], yf, tau, prm)
 
-    def term(yy, kk, t):
-        return terminal_residual(sh, yy, kk, params_at(sh.model, prm, t), t)
-
-    r_term = term(yf, z[kf], tau)
-    dr_dy, dr_dK, dr_dtau = jax.jacfwd(term, argnums=(0, 1, 2))(yf, z[kf], tau)
+    r_term, dr_dy, dr_dK, dr_dtau = terminal_with_derivatives(sh, yf, z[kf], tau, prm)
     dyf_dz = jnp.insert(Phif[:, :-1], kf, gf, axis=1)
     J_term = dr_dy @ dyf_dz
     J_term = J_term.at[:, kf].add(dr_dK)
     ftau_term = dr_dy @ Phif[:, -1] + dr_dtau
 
-    r0 = transversality(sh, z, tau, prm)
-    dr0_dz, dr0_dtau = jax.jacfwd(lambda zz, tt: transversality(sh, zz, tt, prm), argnums=(0, 1))(z, tau)
+    r0, dr0_dz, dr0_dtau = transversality_with_derivatives(sh, z, tau, prm)
 
     f = jnp.concatenate([jnp.atleast_1d(r0), r_term])
     J = jnp.concatenate([dr0_dz[None, :], J_term], axis=0)
