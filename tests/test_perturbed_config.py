@@ -557,3 +557,29 @@ def test_paper_section_says_how_the_e8_counts_start():
     other = {**smoothing, "perturb_at_eps": 3e-2, "eps_blend": 5e-3}
     assert r"switched on at $\varepsilon=3\cdot10^{-2}$" in R.e8_route_text("chain", other)
     assert r"smoothing $\varepsilon=5\cdot10^{-3}$" in R.e8_route_text("previous", other)
+
+
+def test_truncated_svd_steps_leave_a_nearly_flat_direction_alone():
+    """step_rcond: where the Jacobian has a nearly flat direction (σ = 1e-6 here, E8 450 rev at
+    the lunisolar blend: ten, σ/σ_max ≲ 3e-6) whose tiny residual Newton's step would
+    resolve by a long move into the nonlinear region, the truncated-SVD steps of the polish
+    leave that direction out and converge the rest; Newton's polish diverges."""
+    import numpy as np
+
+    from spaceopt.errors import ConvergenceError
+    from spaceopt.indirect.continuation import Continuation, ContinuationOptions, _solve
+
+    def ev(z, tau):
+        f = np.array([z[0] - 1.0 + 500.0 * z[1] ** 2, 1e-6 * z[1] + 1e-9])
+        return f, np.array([[1.0, 1000.0 * z[1]], [0.0, 1e-6]]), np.zeros(2), 0, True
+
+    J = np.array([[1.0, 0.0], [0.0, 1e-6]])
+    assert np.allclose(_solve(J, np.array([2.0, 1e-9]), 1e-3), [2.0, 0.0])
+    assert np.allclose(_solve(J, np.array([2.0, 1e-9]), 0.0), [2.0, 1e-3])
+    z0 = np.array([1.0 + 1e-4, 0.0])
+    polish = lambda z, tau: ev(z, tau)
+    with pytest.raises(ConvergenceError, match="final Newton polish"):
+        Continuation(ev, ContinuationOptions(verbose=False, tol_final=1e-8), polish=polish).run(z0, tau0=1.0)
+    z, _ = Continuation(ev, ContinuationOptions(verbose=False, tol_final=1e-8, step_rcond=1e-3),
+                        polish=polish).run(z0, tau0=1.0)
+    assert z[0] == pytest.approx(1.0, abs=1e-12) and z[1] == 0.0
