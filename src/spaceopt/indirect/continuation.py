@@ -41,8 +41,8 @@ out, and the final polish starts with such steps (then Newton's). Measured at E8
 ten singular values below 3e-6 σ_max (left vectors on the node-time rows), whose residual
 components (~1e-7) Newton resolves by a step of 0.025 into the nonlinear region (|F| → 2.9e-3;
 any fraction of it ≥ 0.1 fails too); the step truncated at 1e-5 brings |F| to 6e-7, the next
-to the flat part alone (docs/perturbed-e6-e7-e8.md, "eighth session"). Written by hand because the corrector-driven step control and the
-reuse of the propagated Jacobian have no counterpart in optimistix/diffrax (which integrate or
+to the flat part alone (docs/perturbed-e6-e7-e8.md, "eighth session"). Written by hand
+because the corrector-driven step control and the reuse of the propagated Jacobian have no counterpart in optimistix/diffrax (which integrate or
 solve, not both).
 """
 from __future__ import annotations
@@ -150,15 +150,21 @@ def _norm(v):
     return float(np.max(np.abs(v)))
 
 
+def _lstsq(J, r, rcond: float = 0.0):
+    """The least-squares solution of J x = r (the arclength follower's solve); ``rcond`` > 0: the
+    truncated-SVD solution, the directions of J with σ < rcond σ_max left out
+    (``ContinuationOptions.step_rcond``)."""
+    return np.linalg.lstsq(J, r, rcond=rcond or None)[0]
+
+
 def _solve(J, r, rcond: float = 0.0):
-    """J⁻¹ r (least squares where J is singular); ``rcond`` > 0: the truncated-SVD solution,
-    the directions of J with σ < rcond σ_max left out (``ContinuationOptions.step_rcond``)."""
+    """J⁻¹ r (least squares where J is singular); ``rcond`` > 0: :func:`_lstsq`."""
     if rcond > 0:
-        return np.linalg.lstsq(J, r, rcond=rcond)[0]
+        return _lstsq(J, r, rcond)
     try:
         return np.linalg.solve(J, r)
     except np.linalg.LinAlgError:
-        return np.linalg.lstsq(J, r, rcond=None)[0]
+        return _lstsq(J, r)
 
 
 class Continuation:
@@ -279,7 +285,7 @@ class Continuation:
         if self.polish is not self.evaluate:
             f, J, ftau, ok = self._eval(z, tau1, final=True)
             F = f
-        out = self._polish(z, J, F, tau1, h, t_start, "done")
+        out = self._polish(z, J, F, tau1, h, t_start, _solve, "done")
         if checkpoint:
             checkpoint.remove()
         return out
@@ -347,10 +353,10 @@ class Continuation:
         self.last_rejection = f"|F| {' -> '.join(v if isinstance(v, str) else f'{v:.2e}' for v in norms) or '-'}: {why}"
         return False, x, F, ev, nF, evals
 
-    def _polish(self, z, J, F, tau, h, t_start, tag):
+    def _polish(self, z, J, F, tau, h, t_start, solve, tag):
         """Final Newton iterations at τ (polishing tolerances) while |F| > tol_final and it does not
         double; records the statistics, raises the diagnosis when |F| stays above 1e3 tol_final.
-        With ``step_rcond``: truncated-SVD steps first, while each at least halves |F|, then
+        ``solve(J, r, rcond)``: the step's linear solve. With ``step_rcond``: truncated-SVD steps first, while each at least halves |F|, then
         Newton steps (a truncated step that does not reduce |F| is dropped)."""
         opt = self.opt
         nF = _norm(F)
@@ -358,7 +364,7 @@ class Continuation:
         for _ in range(opt.max_final):
             if nF <= opt.tol_final:
                 break
-            z_new = z + _solve(J, -F, rcond)
+            z_new = z + solve(J, -F, rcond)
             f_new, J_new, _, ok = self._eval(z_new, tau, final=True)
             n_new = _norm(f_new) if ok and np.all(np.isfinite(f_new)) else np.inf
             if rcond > 0 and n_new > 0.5 * nF:
@@ -447,7 +453,7 @@ class ArclengthContinuation(Continuation):
 
             def newton_step(u, Fc, ev):
                 M = np.vstack([np.hstack([ev[0], (ev[1] + b)[:, None]]), t[None, :]])
-                return u + _solve(M, -np.concatenate([Fc, [np.dot(t, u - up)]]), opt.step_rcond)
+                return u + _lstsq(M, -np.concatenate([Fc, [np.dot(t, u - up)]]), opt.step_rcond)
 
             accepted, uc, Fc, ev, nF, iters = self._correct(up.copy(), residual, newton_step)
             if not accepted:
@@ -475,7 +481,7 @@ class ArclengthContinuation(Continuation):
                 checkpoint.save(self.stats, z=z, tau=tau, tangent=t, h=h, b=b, F=F, h_cap=self._h_cap)
         # polish at τ = 1
         f, J, ftau, ok = self._eval(z, 1.0, final=True)
-        out = self._polish(z, J, f, 1.0, h, t_start, "done (arclength)")
+        out = self._polish(z, J, f, 1.0, h, t_start, _lstsq, "done (arclength)")
         if checkpoint:
             checkpoint.remove()
         return out
