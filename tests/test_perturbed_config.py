@@ -577,7 +577,7 @@ def test_truncated_svd_steps_leave_a_nearly_flat_direction_alone():
     assert np.allclose(_solve(J, np.array([2.0, 1e-9]), 1e-3), [2.0, 0.0])
     assert np.allclose(_solve(J, np.array([2.0, 1e-9]), 0.0), [2.0, 1e-3])
     z0 = np.array([1.0 + 1e-4, 0.0])
-    polish = lambda z, tau: ev(z, tau)
+    polish = lambda z, tau: ev(z, tau)      # a polish of its own: the start at τ₁ is re-evaluated
     with pytest.raises(ConvergenceError, match="final Newton polish"):
         Continuation(ev, ContinuationOptions(verbose=False, tol_final=1e-8), polish=polish).run(z0, tau0=1.0)
     z, _ = Continuation(ev, ContinuationOptions(verbose=False, tol_final=1e-8, step_rcond=1e-3),

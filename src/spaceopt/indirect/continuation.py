@@ -42,8 +42,8 @@ ten singular values below 3e-6 σ_max (left vectors on the node-time rows), whos
 components (~1e-7) Newton resolves by a step of 0.025 into the nonlinear region (|F| → 2.9e-3;
 any fraction of it ≥ 0.1 fails too); the step truncated at 1e-5 brings |F| to 6e-7, the next
 to the flat part alone (docs/perturbed-e6-e7-e8.md, "eighth session"). Written by hand
-because the corrector-driven step control and the reuse of the propagated Jacobian have no counterpart in optimistix/diffrax (which integrate or
-solve, not both).
+because the corrector-driven step control and the reuse of the propagated Jacobian have no
+counterpart in optimistix/diffrax (which integrate or solve, not both).
 """
 from __future__ import annotations
 
@@ -356,8 +356,9 @@ class Continuation:
     def _polish(self, z, J, F, tau, h, t_start, solve, tag):
         """Final Newton iterations at τ (polishing tolerances) while |F| > tol_final and it does not
         double; records the statistics, raises the diagnosis when |F| stays above 1e3 tol_final.
-        ``solve(J, r, rcond)``: the step's linear solve. With ``step_rcond``: truncated-SVD steps first, while each at least halves |F|, then
-        Newton steps (a truncated step that does not reduce |F| is dropped)."""
+        ``solve(J, r, rcond)``: the step's linear solve. With ``step_rcond``: truncated-SVD steps
+        first, while each at least halves |F|, then Newton steps (a truncated step that does not
+        reduce |F| is dropped)."""
         opt = self.opt
         nF = _norm(F)
         rcond = opt.step_rcond

@@ -125,8 +125,8 @@ def _shoot(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol, atol):
     for j in range(1, M - 1):
         J_cont = J_cont.at[j * w:(j + 1) * w, s + (j - 1) * w:s + j * w].set(Phi[j][:, :w])
     J_cont = weights.reshape(-1, 1) * J_cont
-    J_cont = J_cont.at[:, s:].add(-jnp.diag(weights.ravel()))
     J_cont = J_cont.at[:, s:].divide(weights.ravel())          # columns: the scaled node unknowns
+    J_cont = J_cont.at[:, s:].add(-jnp.eye(n_cont))            # ∂/∂(w ⊙ y_{j+1}) of −w ⊙ y_{j+1}
     cont = (weights * (yend[:-1] - ys)).ravel()
     cont_tau = (weights * Phi[:-1, :, -1]).ravel()
 
