@@ -583,3 +583,37 @@ def test_truncated_svd_steps_leave_a_nearly_flat_direction_alone():
     z, _ = Continuation(ev, ContinuationOptions(verbose=False, tol_final=1e-8, step_rcond=1e-3),
                         polish=polish).run(z0, tau0=1.0)
     assert z[0] == pytest.approx(1.0, abs=1e-12) and z[1] == 0.0
+
+
+def test_a_failed_polish_finds_the_root_along_the_flattest_direction():
+    """flat_step: f = (x − y², 10⁻⁶ (y − 0.01) + 100 (x − y²)²) from (0, 0). The flat direction is y
+    (σ = 10⁻⁶); Newton's step lands off the valley x = y², where the second row's curvature
+    makes J nearly singular and Newton diverges; truncated-SVD steps leave g = 10⁻⁸ alone.
+    On the valley g(s) = 10⁻⁶ (s − 0.01): the march and secant find (10⁻⁴, 0.01) from
+    residuals alone (E8 450 rev, the lunisolar blend at τ = 1: the same picture,
+    docs/perturbed-e6-e7-e8.md, "ninth session")."""
+    import numpy as np
+
+    from spaceopt.errors import ConvergenceError
+    from spaceopt.indirect.continuation import Continuation, ContinuationOptions
+
+    def residual(z, tau):
+        valley = z[0] - z[1] ** 2
+        return np.array([valley, 1e-6 * (z[1] - 0.01) + 100.0 * valley ** 2]), True
+
+    def ev(z, tau):
+        valley = z[0] - z[1] ** 2
+        J = np.array([[1.0, -2.0 * z[1]], [200.0 * valley, 1e-6 - 400.0 * z[1] * valley]])
+        return residual(z, tau)[0], J, np.zeros(2), 0, True
+
+    def polish(**kw):
+        cont = Continuation(ev, ContinuationOptions(verbose=False, tol_final=1e-12, **kw),
+                            polish=lambda z, tau: ev(z, tau), residual=residual)
+        return cont.run(np.zeros(2), tau0=1.0)[0], cont.stats
+
+    for kw in ({}, {"step_rcond": 1e-3}):
+        with pytest.raises(ConvergenceError, match="final Newton polish"):
+            polish(**kw)
+    z, stats = polish(flat_step=0.004)
+    assert z == pytest.approx([1e-4, 0.01], abs=1e-12)
+    assert stats.residuals > 0

@@ -13,17 +13,25 @@ half runs); ``--arcs M``: paths followed by multiple shooting over M arcs (case 
 ``path_arcs``); ``--checkpoints DIR``: paths resumable (``ContinuationOptions.checkpoint_dir``);
 ``--step-growth residual --revert``: the step rules of ``ContinuationOptions``; ``--step-rcond C``:
 truncated-SVD corrector and polish steps (``ContinuationOptions.step_rcond``; 1e-5 at 450 rev
-keeps the accepted residual ~1e-6 where Newton's steps overshoot, "eighth session").
+keeps the accepted residual ~1e-6 where Newton's steps overshoot, "eighth session");
+``--flat-step S``: a failed polish seeks the root along the flattest direction
+(``ContinuationOptions.flat_step``; 0.005 converged 450 and 500 rev, "ninth session");
+``--arclength``: each half by the model blend followed in arclength at once
+(``chain.continue_in_model``), not by ``warm_start``'s τ path first; ``--save DIR``: each
+half's solution written there as ``<model>_n<n>.json`` (with its .npz and .rrd).
 
 Usage (repository root, after the J2 artifact exists):
     python docs/experiments/e8_split_model_step.py 300
     python docs/experiments/e8_split_model_step.py 500 --start g44_n500.json --arcs 10 \
-        --checkpoints /tmp/e8_ck --step-growth residual --revert --step-rcond 1e-5
+        --checkpoints /tmp/e8_ck --step-growth residual --revert --step-rcond 1e-5 \
+        --flat-step 0.005 --arclength --save /tmp/e8_full
 """
 import argparse
 import time
+from pathlib import Path
 
 from spaceopt.config import load_yaml
+from spaceopt.indirect import chain
 from spaceopt.indirect.continuation import ContinuationOptions
 from spaceopt.studies import perturbed as P, trajectory
 
@@ -40,6 +48,9 @@ def main():
     ap.add_argument("--step-growth", default="iterations")
     ap.add_argument("--revert", action="store_true")
     ap.add_argument("--step-rcond", type=float, default=0.0)
+    ap.add_argument("--flat-step", type=float, default=0.0)
+    ap.add_argument("--arclength", action="store_true")
+    ap.add_argument("--save", default="")
     a = ap.parse_args()
     pc = load_yaml("config/studies/perturbed.yaml")["perturbed"]
     pc["cases"]["e8"] = {**pc["cases"]["e8"], "models": ["unperturbed", *SPLIT], "path_rtol": a.path_rtol,
@@ -47,13 +58,24 @@ def main():
     eph = P.ephemeris_path("results", pc["cases"]["e8"]["ephemeris"])
     sol = P.load(a.start or f"results/perturbed/e8/j2_n{a.n_rev:g}.json")
     options = ContinuationOptions(step_growth=a.step_growth, checkpoint_dir=a.checkpoints,
-                                  accepted_update="revert" if a.revert else "always", step_rcond=a.step_rcond)
+                                  accepted_update="revert" if a.revert else "always", step_rcond=a.step_rcond,
+                                  flat_step=a.flat_step)
     m0 = sol.transfer.m0
     start_model = next(m for m in SPLIT if pc["models"][m] == (sol.transfer.perturbations or None))
     for model in SPLIT[SPLIT.index(start_model) + 1:]:
         tr = P.transfer_from_config(pc, "e8", model, ephemeris=eph, n_rev=a.n_rev)
         t0 = time.perf_counter()
-        sol = P.warm_start(sol, tr, f"e8 split -> {model} n{a.n_rev:g}", options=options)
+        label = f"e8 split -> {model} n{a.n_rev:g}"
+        if a.arclength:
+            start = P.warm_start_integration(sol, tr)
+            sol = chain.continue_in_model(start, tr.params(thrust=start.thrust_N), options=options, label=label,
+                                          path="arclength")
+            sol.transfer, sol.thrust_N = tr, start.thrust_N
+        else:
+            sol = P.warm_start(sol, tr, label, options=options)
+        if a.save:
+            P.save(sol, Path(a.save) / f"{model}_n{a.n_rev:g}.json", pc, time.perf_counter() - t0,
+                   {"experiment": "docs/experiments/e8_split_model_step.py"})
         s = P.multirev.scalars(sol, trajectory.sample(sol, 20))
         print(f"{model}: {sol.stats.get('jacobian_evaluations')} Jacobians, {time.perf_counter() - t0:.0f} s, "
               f"path {sol.stats.get('warm_path')}, m_p = {m0 - s['m_f_kg']:.4f} kg, "

@@ -34,8 +34,8 @@ from .continuation import (STEP_SIZES, ArclengthContinuation, ArclengthOptions, 
                            ContinuationOptions)
 from .flow import Model, field as flow_field
 from .multiple_shooting import MultipleShooting, node_positions, start_nodes
-from .multiple_shooting import shoot as multiple_shoot
-from .shooting import Shooting, initial_state, shoot
+from .multiple_shooting import residual as multiple_residual, shoot as multiple_shoot
+from .shooting import Shooting, initial_state, residual, shoot
 from .transfer import Transfer
 
 ORBIT_COSTATES = (hm.P, hm.EX, hm.EY, hm.IX, hm.IY, hm.LK)
@@ -118,7 +118,8 @@ def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None, path
     opt = path_options(path, options, label)
     rtol, atol = _path_tolerances(sh)
     cont = PATHS[path](lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm, rtol, atol), opt,
-                       polish=lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm))
+                       polish=lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm),
+                       residual=lambda z, tau: residual(sh, jnp.asarray(z), tau, prm))
     return _follow(cont, z0, path)
 
 
@@ -149,11 +150,13 @@ def _run_multiple(sh: Shooting, z0, prm, label, options, path, arcs):
     rtol, atol = _path_tolerances(sh)
     opt = path_options(path, options, f"{label} ({arcs} arcs)")
     cont = PATHS[path](lambda Z, tau: multiple_shoot(ms, jnp.asarray(Z), tau, prm, nodes, weights, rtol, atol),
-                       opt, polish=lambda Z, tau: multiple_shoot(ms, jnp.asarray(Z), tau, prm, nodes, weights))
+                       opt, polish=lambda Z, tau: multiple_shoot(ms, jnp.asarray(Z), tau, prm, nodes, weights),
+                       residual=lambda Z, tau: multiple_residual(ms, jnp.asarray(Z), tau, prm, nodes, weights))
     Z, stats = _follow(cont, Z0, path)
     single = lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm)
     polish = Continuation(single, path_options("tau", options, f"{label} single-shooting polish"),
-                          polish=lambda z, tau: single(z, tau))
+                          polish=lambda z, tau: single(z, tau),
+                          residual=lambda z, tau: residual(sh, jnp.asarray(z), tau, prm))
     z, stats_polish = _follow(polish, Z[:sh.size], "tau", tau0=1.0)
     return z, {**_merge_stats({"multiple_shooting": stats, "single_polish": stats_polish}), "arcs": arcs}
 

@@ -41,7 +41,18 @@ out, and the final polish starts with such steps (then Newton's). Measured at E8
 ten singular values below 3e-6 σ_max (left vectors on the node-time rows), whose residual
 components (~1e-7) Newton resolves by a step of 0.025 into the nonlinear region (|F| → 2.9e-3;
 any fraction of it ≥ 0.1 fails too); the step truncated at 1e-5 brings |F| to 6e-7, the next
-to the flat part alone (docs/perturbed-e6-e7-e8.md, "eighth session"). Written by hand
+to the flat part alone (docs/perturbed-e6-e7-e8.md, "eighth session"). ``flat_step`` > 0: where
+the final polish fails, a root is sought along the flattest direction of J (Lyapunov–Schmidt
+reduction, :meth:`Continuation._flat_root`): with v, u the last right and left singular vectors,
+the points x with v·(x − z) = s whose residual has no component outside u form a curve (the
+valley); on it f reduces to the scalar g(s) = u·f, found by chord steps with J held fixed, and
+s is marched in steps of ``flat_step`` until g changes sign, then refined by secant steps, from
+residual evaluations only (``residual``, no sensitivities). Newton's step has the right length
+along v but goes straight where the valley curves, and lands where J is nearly singular.
+Measured at E8 450 rev, 4×4 → 4×4 + Moon + Sun at τ = 1 (10 arcs): σ_min 2.0e-5 (σ_max 3.2e3),
+g(0) = −4.7e-7, g = −3.4e-7, −5.5e-7, −1.4e-7, +1.8e-7 at s = 0.01 … 0.025 (scaled unknowns),
+the root at s = 0.0227, where σ_min is 1.2e-4 and |F| 6e-10 after one Newton step
+(docs/perturbed-e6-e7-e8.md, "ninth session"). Written by hand
 because the corrector-driven step control and the reuse of the propagated Jacobian have no
 counterpart in optimistix/diffrax (which integrate or solve, not both).
 """
@@ -78,6 +89,9 @@ class ContinuationOptions:
     accepted_update: str = "always"     # or 'revert' (module docstring)
     checkpoint_dir: str = ""            # resumable paths (module docstring); "" = none
     step_rcond: float = 0.0             # truncated-SVD corrector steps (module docstring); 0 = Newton
+    flat_step: float = 0.0              # a failed final polish: the flattest direction's root (module docstring); 0 = none
+    flat_max_steps: int = 20            # steps of flat_step marched at most
+    flat_chord: int = 30                # chord steps per valley point; secant steps at most
 
 
 @dataclass
@@ -85,6 +99,7 @@ class ContinuationStats:
     steps: int = 0
     rejected: int = 0
     jacobians: int = 0
+    residuals: int = 0                  # residual evaluations without Jacobian (_flat_root)
     integration_steps: int = 0
     residual: float = float("nan")
     wall_time_s: float = 0.0
@@ -92,7 +107,7 @@ class ContinuationStats:
 
     def as_dict(self):
         return {"steps": self.steps, "rejected_steps": self.rejected,
-                "jacobian_evaluations": self.jacobians,
+                "jacobian_evaluations": self.jacobians, "residual_evaluations": self.residuals,
                 "integration_steps_total": self.integration_steps,
                 "final_residual": self.residual, "wall_time_s": self.wall_time_s}
 
@@ -174,9 +189,10 @@ class Continuation:
     τ₁: the path may be followed with looser integration tolerances than the end point needs.
     """
 
-    def __init__(self, evaluate, options: ContinuationOptions | None = None, polish=None):
+    def __init__(self, evaluate, options: ContinuationOptions | None = None, polish=None, residual=None):
         self.evaluate = evaluate
         self.polish = polish or evaluate
+        self.residual = residual
         self.opt = options or ContinuationOptions()
         if self.opt.step_growth not in GROWTH:
             raise ValueError(f"step_growth {self.opt.step_growth!r}: expected one of {GROWTH}")
@@ -205,6 +221,16 @@ class Continuation:
         self.stats.jacobians += 1
         self.stats.integration_steps += int(nsteps)
         return np.asarray(f), np.asarray(J), np.asarray(ftau), bool(ok)
+
+    def _residual(self, z, tau):
+        """f(z, τ) at the polishing tolerances and its success flag: by ``residual`` where given
+        (no derivatives), else by the polishing evaluation."""
+        self.stats.residuals += 1
+        if self.residual is not None:
+            f, ok = self.residual(z, tau)
+        else:
+            f, _, _, _, ok = self.polish(z, tau)
+        return np.asarray(f), bool(ok)
 
     def _log(self, msg):
         if self.opt.verbose:
@@ -358,10 +384,28 @@ class Continuation:
         double; records the statistics, raises the diagnosis when |F| stays above 1e3 tol_final.
         ``solve(J, r, rcond)``: the step's linear solve. With ``step_rcond``: truncated-SVD steps
         first, while each at least halves |F|, then Newton steps (a truncated step that does not
-        reduce |F| is dropped)."""
+        reduce |F| is dropped). With ``flat_step``: where that fails, the root along the flattest
+        direction (:meth:`_flat_root`), then Newton again."""
+        opt = self.opt
+        z, J, F, nF = self._newton_polish(z, J, F, tau, solve, opt.step_rcond)
+        if nF > opt.tol_final * 1e3 and opt.flat_step > 0:
+            root = self._flat_root(z, J, F, tau)
+            if root is not None:
+                f, J_root, _, ok = self._eval(root, tau, final=True)
+                if ok and np.all(np.isfinite(f)):
+                    z, J, F, nF = self._newton_polish(root, J_root, f, tau, solve, 0.0)
+        self.stats.residual = nF
+        self.stats.wall_time_s = time.perf_counter() - t_start
+        if nF > opt.tol_final * 1e3:
+            raise self._diagnose("final Newton polish did not converge", z, tau, h, F)
+        self._log(f"{tag}: |F|={nF:.2e} steps={self.stats.steps} rejected={self.stats.rejected} "
+                  f"jacobians={self.stats.jacobians} ({self.stats.wall_time_s:.1f} s)")
+        return z, J
+
+    def _newton_polish(self, z, J, F, tau, solve, rcond):
+        """The iterations of :meth:`_polish`: (z, J, F, |F|) where they stop."""
         opt = self.opt
         nF = _norm(F)
-        rcond = opt.step_rcond
         for _ in range(opt.max_final):
             if nF <= opt.tol_final:
                 break
@@ -375,14 +419,64 @@ class Continuation:
             elif n_new > 2.0 * nF:
                 break
             z, F, J, nF = z_new, f_new, J_new, n_new
-        self.stats.residual = nF
-        self.stats.wall_time_s = time.perf_counter() - t_start
-        if nF > opt.tol_final * 1e3:
-            raise self._diagnose("final Newton polish did not converge", z, tau, h, F)
-        self._log(f"{tag}: |F|={nF:.2e} steps={self.stats.steps} rejected={self.stats.rejected} "
-                  f"jacobians={self.stats.jacobians} ({self.stats.wall_time_s:.1f} s)")
-        return z, J
+        return z, J, F, nF
 
+    def _flat_root(self, z, J, F, tau):
+        """A root of f(·, τ) along the flattest direction of J (Lyapunov–Schmidt; module
+        docstring), or None. With J = U diag(σ) Vᵀ, v and u its last singular vectors: on the
+        valley {x : v·(x − z) = s, U_rᵀ f(x) = 0} (U_r: every left vector but u) f reduces to the
+        scalar g(s) = u·f. Each valley point by chord steps with J held fixed, x ← x −
+        V_r diag(σ_r)⁻¹ U_rᵀ f(x) (they leave s unchanged); s marches by ``flat_step`` from 0 in
+        Newton's direction (−sign g(0)), each start extrapolated from the last two points, until
+        g changes sign; a secant on g then finds the root. Residual evaluations only
+        (``residual``), no Jacobians."""
+        opt = self.opt
+        U, S, Vt = np.linalg.svd(J)
+        u, v, Ur, Sr, Vr = U[:, -1], Vt[-1], U[:, :-1], S[:-1], Vt[:-1]
+
+        def on_valley(x):
+            best, stall = (x, np.inf, np.nan), 0
+            for _ in range(opt.flat_chord):
+                f, ok = self._residual(x, tau)
+                if not ok or not np.all(np.isfinite(f)):
+                    break
+                c = Ur.T @ f
+                reg = float(np.linalg.norm(c))
+                best, stall = ((x, reg, float(u @ f)), 0) if reg < best[1] else (best, stall + 1)
+                if reg < opt.tol_final or stall >= 4:
+                    break
+                x = x - Vr.T @ (c / Sr)
+            return best
+
+        x, reg, g = on_valley(z)
+        if not reg < 1e-2 * abs(g):
+            self._log(f"  flat direction (sigma {S[-1]:.2e}): the valley through the point not reached (|f_r| {reg:.2e}, g {g:.2e})")
+            return None
+        pts, tol_valley = [(0.0, x, g)], 1e-2 * abs(g)
+        step = -np.sign(g) * opt.flat_step
+        self._log(f"  flat direction (sigma {S[-1]:.2e} of {S[0]:.2e}): g(0) = {g:+.3e}, marching s by {step:+.3g}")
+        for k in range(1, opt.flat_max_steps + 1):
+            s = k * step
+            (s1, x1, _), prev = pts[-1], pts[-2] if len(pts) > 1 else None
+            start = x1 + (s - s1) * (v if prev is None else (x1 - prev[1]) / (s1 - prev[0]))
+            x, reg, g = on_valley(start)
+            self._log(f"  s = {s:+.4g}: g = {g:+.3e} (|f_r| {reg:.1e})")
+            if not reg < tol_valley:
+                continue
+            pts.append((s, x, g))
+            if np.sign(g) != np.sign(pts[-2][2]):
+                break
+        else:
+            return None
+        (sa, xa, ga), (sb, xb, gb) = pts[-2], pts[-1]
+        for _ in range(opt.flat_chord):
+            if abs(gb) <= opt.tol_final or ga == gb:
+                break
+            s = sb - gb * (sb - sa) / (gb - ga)
+            x, reg, g = on_valley(xa + (s - sa) / (sb - sa) * (xb - xa))
+            self._log(f"  secant s = {s:+.6g}: g = {g:+.3e} (|f_r| {reg:.1e})")
+            (sa, xa, ga), (sb, xb, gb) = (sb, xb, gb), (s, x, g)
+        return xb
 
 STEP_SIZES = ("h_init", "h_min", "h_max", "max_steps")     # the options ArclengthOptions redefines
 
@@ -411,8 +505,8 @@ class ArclengthContinuation(Continuation):
     ``evaluate`` signature as :class:`Continuation`; here τ₀ = 0, τ₁ = 1.
     """
 
-    def __init__(self, evaluate, options: ContinuationOptions | None = None, polish=None):
-        super().__init__(evaluate, options or ArclengthOptions(), polish)
+    def __init__(self, evaluate, options: ContinuationOptions | None = None, polish=None, residual=None):
+        super().__init__(evaluate, options or ArclengthOptions(), polish, residual)
 
     def run(self, z0, tau0=0.0, tau1=1.0, b=None):
         if (tau0, tau1) != (0.0, 1.0):

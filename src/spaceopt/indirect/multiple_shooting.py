@@ -38,9 +38,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ConvergenceError
-from .flow import field, params_at, propagate_with_sensitivities
-from .shooting import (Shooting, initial_state, start_with_sensitivities, terminal_with_derivatives,
-                       transversality_with_derivatives)
+from .flow import field, params_at, propagate, propagate_with_sensitivities
+from .shooting import (Shooting, initial_state, start_with_sensitivities, terminal_residual,
+                       terminal_with_derivatives, transversality, transversality_with_derivatives)
 
 
 @dataclass(frozen=True)
@@ -99,20 +99,43 @@ def shoot(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol=None, atol=Non
                   sh.atol if atol is None else atol)
 
 
+def residual(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol=None, atol=None):
+    """F(Z, τ) of :func:`shoot` without its derivatives (residual, success flag)."""
+    sh = ms.single
+    return _residual(ms, Z, tau, prm, nodes, weights, sh.rtol if rtol is None else rtol,
+                     sh.atol if atol is None else atol)
+
+
+def _unpack(ms: MultipleShooting, Z, nodes, weights):
+    """z, K_f, the node states y_j (unscaled) and each arc's (K_start, K_end)."""
+    sh = ms.single
+    z, Kf = Z[:sh.size], Z[sh.kf_index]
+    ys = Z[sh.size:].reshape(ms.arcs - 1, ms.width) / weights
+    return z, Kf, ys, jnp.concatenate([jnp.zeros(1), nodes]), jnp.concatenate([nodes, Kf[None]])
+
+
+@partial(jax.jit, static_argnums=0)
+def _residual(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol, atol):
+    sh = ms.single
+    z, Kf, ys, K0, K1 = _unpack(ms, Z, nodes, weights)
+    Y0 = jnp.concatenate([initial_state(sh, z, params_at(sh.model, prm, tau))[None], ys])
+    yend, _, ok = jax.vmap(lambda y, a, b: propagate(sh.model, y, b, tau, prm, rtol, atol, sh.max_steps, K0=a))(Y0, K0, K1)
+    r_term = terminal_residual(sh, yend[-1], Kf, params_at(sh.model, prm, tau), tau)
+    cont = (weights * (yend[:-1] - ys)).ravel()
+    return jnp.concatenate([jnp.atleast_1d(transversality(sh, z, tau, prm)), cont, r_term]), jnp.all(ok)
+
+
 @partial(jax.jit, static_argnums=0)
 def _shoot(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol, atol):
     sh, M, w = ms.single, ms.arcs, ms.width
     s, kf = sh.size, sh.kf_index
-    z, Kf = Z[:s], Z[kf]
-    ys = Z[s:].reshape(M - 1, w) / weights
+    z, Kf, ys, K0, K1 = _unpack(ms, Z, nodes, weights)
 
     y0, dy0_dz, dy0_dtau = start_with_sensitivities(sh, z, tau, prm)
     first = jnp.zeros((w, w + 1)).at[:, :s - 1].set(dy0_dz).at[:, -1].set(dy0_dtau)
     inner = jnp.broadcast_to(jnp.eye(w, w + 1), (M - 1, w, w + 1))
     Y0 = jnp.concatenate([y0[None], ys])
     Phi0 = jnp.concatenate([first[None], inner])
-    K0 = jnp.concatenate([jnp.zeros(1), nodes])
-    K1 = jnp.concatenate([nodes, Kf[None]])
     prop = jax.vmap(lambda y, P, a, b: propagate_with_sensitivities(
         sh.model, y, P, b, tau, prm, rtol, atol, sh.max_steps, K0=a))
     yend, Phi, nsteps, ok = prop(Y0, Phi0, K0, K1)

@@ -30,7 +30,7 @@ import jax
 import jax.numpy as jnp
 
 from . import hamiltonians as hm
-from .flow import Model, field, hamiltonian, params_at, propagate_with_sensitivities
+from .flow import Model, field, hamiltonian, params_at, propagate, propagate_with_sensitivities
 from .transfer import MAX_STEPS, PATH_RTOL
 
 COSTATE_NAMES = ("p_p", "p_ex", "p_ey", "p_ix", "p_iy", "p_LK", "p_t", "p_m")
@@ -112,6 +112,20 @@ def shoot(sh: Shooting, z, tau, prm, rtol=None, atol=None):
     loose path tolerance and the tight end-point tolerance share one compiled function.
     """
     return _shoot(sh, z, tau, prm, sh.rtol if rtol is None else rtol, sh.atol if atol is None else atol)
+
+
+def residual(sh: Shooting, z, tau, prm, rtol=None, atol=None):
+    """f(z, τ) of :func:`shoot` without its derivatives (residual, success flag)."""
+    return _residual(sh, z, tau, prm, sh.rtol if rtol is None else rtol, sh.atol if atol is None else atol)
+
+
+@partial(jax.jit, static_argnums=0)
+def _residual(sh: Shooting, z, tau, prm, rtol, atol):
+    kf = sh.kf_index
+    y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
+    yf, _, ok = propagate(sh.model, y0, z[kf], tau, prm, rtol, atol, sh.max_steps)
+    r_term = terminal_residual(sh, yf, z[kf], params_at(sh.model, prm, tau), tau)
+    return jnp.concatenate([jnp.atleast_1d(transversality(sh, z, tau, prm)), r_term]), ok
 
 
 def start_with_sensitivities(sh: Shooting, z, tau, prm):

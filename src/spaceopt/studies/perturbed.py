@@ -231,10 +231,7 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
         raise ConfigError("warm_start", tr_to.perturbations, "cannot warm-start an unperturbed problem from a perturbed one")
     if not sol.transfer.perturbed and tr_to.perturbed:
         return perturb_from_unperturbed(sol, tr_to, label, eps_smooth=eps_smooth, options=options)
-    # every stage integrates with the new problem's settings (path rtol, step cap), not the
-    # start's: E8 J2 → 4×4 + Moon + Sun needs the full model's tighter path_rtol
-    sol = dataclasses.replace(sol, shooting=dataclasses.replace(sol.shooting, **tr_to.integration()),
-                              transfer=dataclasses.replace(sol.transfer, **tr_to.integration()))
+    sol = warm_start_integration(sol, tr_to)
     prm_to = tr_to.params(thrust=sol.thrust_N)
     if sol.transfer.epoch_utc != tr_to.epoch_utc:
         # new departure date (E6): the epoch moves continuously from the old date to the new one
@@ -278,6 +275,14 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
             out.stats["path_failures"] = failures
     out.transfer, out.thrust_N = tr_to, sol.thrust_N
     return out
+
+
+def warm_start_integration(sol: Solution, tr_to: Transfer) -> Solution:
+    """``sol`` integrating with the settings of ``tr_to`` (path rtol, step cap, path arcs): every
+    stage of a warm start does, not with the start's (E8 J2 → 4×4 + Moon + Sun needs the full
+    model's tighter path_rtol)."""
+    return dataclasses.replace(sol, shooting=dataclasses.replace(sol.shooting, **tr_to.integration()),
+                               transfer=dataclasses.replace(sol.transfer, **tr_to.integration()))
 
 
 def perturb_at_eps(pc: dict, case: str, key: str = "perturb_at_eps") -> float | None:
