@@ -74,6 +74,7 @@ def main():
         else:
             sol = P.warm_start(sol, tr, label, options=options)
         if a.save:
+            Path(a.save).mkdir(parents=True, exist_ok=True)
             P.save(sol, Path(a.save) / f"{model}_n{a.n_rev:g}.json", pc, time.perf_counter() - t0,
                    {"experiment": "docs/experiments/e8_split_model_step.py"})
         s = P.multirev.scalars(sol, trajectory.sample(sol, 20))
