@@ -70,7 +70,7 @@ def main():
             start = P.warm_start_integration(sol, tr)
             sol = chain.continue_in_model(start, tr.params(thrust=start.thrust_N), options=options, label=label,
                                           path="arclength")
-            sol.transfer, sol.thrust_N = tr, start.thrust_N
+            sol.transfer = tr                       # continue_in_model keeps thrust_N
         else:
             sol = P.warm_start(sol, tr, label, options=options)
         if a.save:
