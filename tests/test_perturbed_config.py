@@ -426,6 +426,34 @@ def test_warm_start_options_follow_the_case_step_growth():
         P.warm_start_options(pc, "e9")
 
 
+def test_model_step_settings_reach_the_warm_start_of_that_model_only():
+    """Case option model_step {model: settings}: E8's full model gets the arclength path and its
+    continuation settings (over the case's warm_step_growth); other models keep the defaults;
+    bad settings name the key and value."""
+    full = P.warm_start_kwargs(PC, "e8", "g44_moon_sun", checkpoint_dir="ck")
+    step = PC["cases"]["e8"]["model_step"]["g44_moon_sun"]
+    assert full["model_path"] == step["path"] == "arclength"
+    opt = full["options"]
+    assert (opt.step_growth, opt.accepted_update, opt.step_rcond, opt.flat_step, opt.checkpoint_dir) == \
+        (step["step_growth"], step["accepted_update"], step["step_rcond"], step["flat_step"], "ck")
+    g44 = P.warm_start_kwargs(PC, "e8", "g44")
+    assert g44["model_path"] == "tau" and g44["options"] is None
+    pc = copy.deepcopy(PC)
+    pc["cases"]["e8"]["warm_step_growth"] = "iterations"
+    pc["cases"]["e8"]["model_step"]["g44_moon_sun"] = {"step_growth": "residual"}
+    assert P.warm_start_options(pc, "e8", model="g44_moon_sun").step_growth == "residual"
+    assert P.warm_start_options(pc, "e8", model="g44").step_growth == "iterations"
+    for key, val, settings in (("path", "spiral", {"path": "spiral"}), ("flat_step", -1, {"flat_step": -1}),
+                               ("accepted_update", "never", {"accepted_update": "never"}),
+                               ("h_init", 0.1, {"h_init": 0.1})):
+        pc["cases"]["e8"]["model_step"] = {"g44_moon_sun": settings}
+        with pytest.raises(ConfigError, match=rf"perturbed\.cases\.e8\.model_step\.g44_moon_sun\.{key}.*{val}"):
+            P.warm_start_kwargs(pc, "e8", "g44_moon_sun")
+    pc["cases"]["e8"]["model_step"] = {"g45": {"path": "tau"}}
+    with pytest.raises(ConfigError, match=r"perturbed\.cases\.e8\.model_step\.g45"):
+        P.warm_start_kwargs(pc, "e8", "g44_moon_sun")
+
+
 def test_force_model_step_goes_through_the_smoothing_eps(monkeypatch):
     """warm_start J2 → 4×4 with model_step_eps: the model step is done at that ε, in arclength
     (E7's route); without it, at ε_f by the model blend (E8's, E9's)."""
@@ -452,6 +480,9 @@ def test_force_model_step_goes_through_the_smoothing_eps(monkeypatch):
     calls.clear()
     P.warm_start(sol, g44, "test", eps_smooth=1e-2)          # perturb_at_eps alone: at ε_f
     assert calls == [("model", None, "tau", True)]
+    calls.clear()
+    out = P.warm_start(sol, g44, "test", model_path="arclength")   # model_step path: arclength at once
+    assert calls == [("model", None, "arclength", True)] and out.stats["warm_path"] == "arclength"
 
 
 def test_model_step_falls_back_from_the_blend_to_the_newton_homotopy(monkeypatch):

@@ -37,11 +37,10 @@ def main(sm):
         (f"/n{kw['n_rev']:g}" if "n_rev" in kw else "")
     # perturbations switched on / the force model changed at a larger smoothing ε than ε_f
     # (case options perturb_at_eps, model_step_at_eps), the continuation step rule
-    # (warm_step_growth); the warm start's paths save their last accepted point next to the
+    # (warm_step_growth), the path and settings of a model step (model_step); the warm start's paths save their last accepted point next to the
     # output, under the config's hash, and a rerun after an interruption resumes from it (E8
     # 450-500: hours); checkpoints of another config are dropped
-    eps_kw = {**P.warm_start_eps(cfg, case),
-              "options": P.warm_start_options(cfg, case, checkpoint_dir=str(checkpoint_dir(out, cfg)))}
+    warm_kw = P.warm_start_kwargs(cfg, case, model, checkpoint_dir=str(checkpoint_dir(out, cfg)))
     t0 = time.perf_counter()
     artifacts.clear_failures(out)
 
@@ -66,12 +65,12 @@ def main(sm):
                 fail(exc, ".chain_failure.json")
                 print(f"[{label}] chain from the zero guess failed ({exc}); warm start from "
                       f"{sm.input.start}", file=sys.stderr, flush=True)
-                sol = P.warm_start(P.load(sm.input.start), tr, label + "/warm", **eps_kw)
+                sol = P.warm_start(P.load(sm.input.start), tr, label + "/warm", **warm_kw)
                 extra = {"continued_from": str(sm.input.start), "route": route,
                          "chain_failure": {"error": str(exc), "diagnosis": exc.diagnosis}}
         else:
             start = P.load(sm.input.start)
-            sol = P.warm_start(start, tr, label, **eps_kw)
+            sol = P.warm_start(start, tr, label, **warm_kw)
             extra = {"continued_from": str(sm.input.start)}
     except ConvergenceError as exc:
         fail(exc, ".failure.json")

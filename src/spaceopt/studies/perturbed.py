@@ -41,7 +41,7 @@ from ..errors import ConfigError, ConvergenceError
 from ..indirect import chain
 from ..indirect import hamiltonians as hm
 from ..indirect.chain import Solution
-from ..indirect.continuation import GROWTH, ContinuationOptions
+from ..indirect.continuation import ACCEPTED_UPDATES, GROWTH, ContinuationOptions
 from ..indirect.shooting import Shooting
 from ..indirect.transfer import MAX_STEPS, PATH_RTOL, Orbit, Transfer, step_cap
 from . import multirev
@@ -53,7 +53,9 @@ ANGLE_KEYS = ("i_deg", "raan_deg", "argp_deg")
 CASE_KEYS = ("initial", "final", "L0_deg", "n_rev", "m0_kg", "isp_s", "thrust_N", "epoch_utc",
              "ephemeris", "models")
 OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref", "route", "model_start", "fallback",
-                      "perturb_at_eps", "model_step_at_eps", "path_rtol", "path_arcs", "warm_step_growth")
+                      "perturb_at_eps", "model_step_at_eps", "path_rtol", "path_arcs", "warm_step_growth",
+                      "model_step")
+MODEL_STEP_PATHS = ("tau", "arclength")
 
 
 def _number(cfg, key, path, positive=False):
@@ -209,7 +211,7 @@ def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False, path: str = 
 
 
 def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smooth: float | None = None,
-               model_step_eps: float | None = None) -> Solution:
+               model_step_eps: float | None = None, model_path: str = "tau") -> Solution:
     """From a converged OT solution to the problem of ``tr_to`` (new date, model or n_rev).
 
     Perturbed → perturbed: a new force model at the same data is reached by the model blend
@@ -224,8 +226,10 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
     ``model_step_at_eps``): a perturbed force model is changed at that ε, in arclength
     (E7: unperturbed → J2 → 4×4 + Moon + Sun, both at ε = 10⁻²; E8: J2 on at 10⁻², the model
     step at ε_f). ``options``: continuation options of every stage (all but the step sizes reach
-    the arclength paths too; case option ``warm_step_growth``, :func:`warm_start_options`). The
-    path used is in ``stats['warm_path']``.
+    the arclength paths too; case option ``warm_step_growth``, :func:`warm_start_options`).
+    ``model_path`` 'arclength' (case option ``model_step``, :func:`case_model_step`): a model
+    step at ε_f is the model blend followed in arclength at once (E8 4×4 → 4×4 + Moon + Sun,
+    whose τ path crawls). The path used is in ``stats['warm_path']``.
     """
     if sol.transfer.perturbed and not tr_to.perturbed:
         raise ConfigError("warm_start", tr_to.perturbations, "cannot warm-start an unperturbed problem from a perturbed one")
@@ -253,7 +257,9 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
         # and where its end point is singular by the Newton homotopy in the model (E8: the
         # blend converges at 200, 300-400 rev; at 250 both its τ and arclength paths reach
         # τ = 1 with |F| ~ 3e-5 and the polish fails, while the Newton homotopy converges)
-        if same_count and sol.transfer.perturbations != tr_to.perturbations:
+        if same_count and sol.transfer.perturbations != tr_to.perturbations and model_path == "arclength":
+            tries = [(chain.continue_in_model, "arclength", "arclength")]
+        elif same_count and sol.transfer.perturbations != tr_to.perturbations:
             tries = [(chain.continue_in_model, "tau", "tau"), (chain.continue_in_params, "tau", "newton tau"),
                      (chain.continue_in_model, "arclength", "arclength")]
         else:
@@ -298,23 +304,57 @@ def perturb_at_eps(pc: dict, case: str, key: str = "perturb_at_eps") -> float | 
     return val
 
 
-def warm_start_eps(pc: dict, case: str) -> dict:
-    """The ε keyword arguments of :func:`warm_start` from the case options ``perturb_at_eps``
-    and ``model_step_at_eps`` (each checked by :func:`perturb_at_eps`)."""
-    return {"eps_smooth": perturb_at_eps(pc, case), "model_step_eps": perturb_at_eps(pc, case, "model_step_at_eps")}
+def case_model_step(cc: dict, model: str, path: str) -> dict:
+    """Case option ``model_step`` ({model: settings}): how the warm start into that model is
+    followed, ``path`` ('tau', the default: τ, then its fallbacks; 'arclength': the model blend
+    in arclength at once) and the continuation options ``step_growth``, ``accepted_update``,
+    ``step_rcond``, ``flat_step`` (:class:`ContinuationOptions`). E8 names its full model (the
+    4×4 → 4×4 + Moon + Sun step at 450-500 revolutions, docs/perturbed-e6-e7-e8.md, "ninth
+    session"). Models not named get {}."""
+    def read(cfg, key, where):
+        val = cfg[key]
+        if not isinstance(val, dict):
+            raise ConfigError(f"{where}.{key}", val, "expected a mapping of model-step settings")
+        checks = {"path": MODEL_STEP_PATHS, "step_growth": GROWTH, "accepted_update": ACCEPTED_UPDATES}
+        for k, v in val.items():
+            if k in checks:
+                if v not in checks[k]:
+                    raise ConfigError(f"{where}.{key}.{k}", v, f"expected one of {', '.join(checks[k])}")
+            elif k in ("step_rcond", "flat_step"):
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 <= v < 1:
+                    raise ConfigError(f"{where}.{key}.{k}", v, "expected a number in [0, 1)")
+            else:
+                raise ConfigError(f"{where}.{key}.{k}", v,
+                                  "unknown setting (expected path, step_growth, accepted_update, step_rcond, flat_step)")
+        return dict(val)
+    return _per_model(cc, "model_step", model, path, {}, read)
 
 
-def warm_start_options(pc: dict, case: str, checkpoint_dir: str = "") -> ContinuationOptions | None:
+def warm_start_kwargs(pc: dict, case: str, model: str, checkpoint_dir: str = "") -> dict:
+    """The keyword arguments of :func:`warm_start` into ``model`` from the case options:
+    ``eps_smooth`` and ``model_step_eps`` (``perturb_at_eps``, ``model_step_at_eps``, each
+    checked by :func:`perturb_at_eps`), ``options`` (:func:`warm_start_options`) and
+    ``model_path`` (:func:`case_model_step`)."""
+    step = case_model_step(pc["cases"][case], model, f"perturbed.cases.{case}")
+    return {"eps_smooth": perturb_at_eps(pc, case), "model_step_eps": perturb_at_eps(pc, case, "model_step_at_eps"),
+            "options": warm_start_options(pc, case, checkpoint_dir, model), "model_path": step.get("path", "tau")}
+
+
+def warm_start_options(pc: dict, case: str, checkpoint_dir: str = "", model: str | None = None) -> ContinuationOptions | None:
     """Continuation options of the case's warm starts (:func:`warm_start`): case option
-    ``warm_step_growth`` ('iterations' | 'residual', :mod:`spaceopt.indirect.continuation`) and
-    ``checkpoint_dir`` (paths resumable after an interruption, ``ContinuationOptions``);
-    None (the followers' defaults) where neither is given."""
-    growth = pc["cases"][case].get("warm_step_growth")
-    if growth is None and not checkpoint_dir:
-        return None
+    ``warm_step_growth`` ('iterations' | 'residual', :mod:`spaceopt.indirect.continuation`),
+    the continuation settings ``model_step`` names for ``model`` (:func:`case_model_step`; they
+    take precedence) and ``checkpoint_dir`` (paths resumable after an interruption,
+    ``ContinuationOptions``); None (the followers' defaults) where none is given."""
+    cc = pc["cases"][case]
+    growth = cc.get("warm_step_growth")
     if growth is not None and growth not in GROWTH:
         raise ConfigError(f"perturbed.cases.{case}.warm_step_growth", growth, f"expected one of {', '.join(GROWTH)}")
-    return ContinuationOptions(**({"step_growth": growth} if growth else {}), checkpoint_dir=checkpoint_dir)
+    step = case_model_step(cc, model, f"perturbed.cases.{case}") if model is not None else {}
+    settings = {**({"step_growth": growth} if growth else {}), **{k: v for k, v in step.items() if k != "path"}}
+    if not settings and not checkpoint_dir:
+        return None
+    return ContinuationOptions(**settings, checkpoint_dir=checkpoint_dir)
 
 
 def perturbation_switch(tr: Transfer) -> Shooting:
