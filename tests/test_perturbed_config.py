@@ -578,16 +578,25 @@ def test_paper_section_says_how_the_e8_counts_start():
     assert smoothing["eps_final"] == PC["numerics"]["eps_final"]
     assert smoothing["perturb_at_eps"] == PC["cases"]["e8"]["perturb_at_eps"]
     assert smoothing["model_step_at_eps"] == smoothing["eps_final"]       # E8 names none
-    chain_text = R.paper_section([], {}, None, {}, [], e8_count_start="chain", smoothing=smoothing)
-    previous_text = R.paper_section([], {}, None, {}, [], e8_count_start="previous", smoothing=smoothing)
+    steps = P.e8_model_steps(PC)
+    assert [s["model"] for s in steps] == PC["cases"]["e8"]["models"][2:]
+    chain_text = R.paper_section([], {}, None, {}, [], e8_count_start="chain", smoothing=smoothing, e8_steps=steps)
+    previous_text = R.paper_section([], {}, None, {}, [], e8_count_start="previous", smoothing=smoothing,
+                                    e8_steps=steps)
     assert "a chain of its own from the zero guess" in chain_text
     assert "next smaller one" not in chain_text
     assert "next smaller one" in previous_text
     assert r"$J_2$ switched on at $\varepsilon=10^{-2}$" in chain_text
     assert r"smoothing stage to $\varepsilon_f=10^{-5}$" in chain_text
     other = {**smoothing, "perturb_at_eps": 3e-2, "eps_blend": 5e-3}
-    assert r"switched on at $\varepsilon=3\cdot10^{-2}$" in R.e8_route_text("chain", other)
-    assert r"smoothing $\varepsilon=5\cdot10^{-3}$" in R.e8_route_text("previous", other)
+    assert r"switched on at $\varepsilon=3\cdot10^{-2}$" in R.e8_route_text("chain", other, [])
+    assert r"smoothing $\varepsilon=5\cdot10^{-3}$" in R.e8_route_text("previous", other, [])
+    # the model steps after J2, from the case options model_step and path_arcs
+    arcs = PC["cases"]["e8"]["path_arcs"]["g44_moon_sun"]
+    assert (r"to 4$\times$4 (in $\tau$); then to 4$\times$4 + Moon + Sun (in arclength, by multiple "
+            f"shooting over {arcs} arcs, with Newton steps truncated below") in chain_text
+    assert "flattest direction" in chain_text
+    assert R.e8_route_text("chain", smoothing, []).endswith("accelerations. ")
 
 
 def test_truncated_svd_steps_leave_a_nearly_flat_direction_alone():

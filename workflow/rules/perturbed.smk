@@ -4,7 +4,7 @@
 #   results/perturbed/e8/<model>_n<n>.{json,npz,rrd}    E8 (n to n; perturbed from unperturbed at n)
 #   results/perturbed/e9_budget.json                    ΔΩ budget check (spec §6)
 #   results/perturbed/{e5,e6_date_scan,e7,e8,e9}.csv, reproduction.csv, paper_section.tex, figures/
-from spaceopt.studies.perturbed import e8_count_start, e8_runs, e8_smoothing, scan_start_from
+from spaceopt.studies.perturbed import e8_count_start, e8_model_steps, e8_runs, e8_smoothing, scan_start_from
 
 check_section("perturbed", physical=lambda pc: (scan_start_from(pc["e6"]), e8_runs(pc)))
 PT = config["perturbed"]
@@ -250,7 +250,8 @@ rule perturbed_paper_section:
            **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},
            _src=lib_sources("studies/perturbed_report")
     output: f"{PTDIR}/paper_section.tex"
-    params: run=PT["run"], results=RESULTS, e8_count_start=e8_count_start(PT), e8_smoothing=e8_smoothing(PT)
+    params: run=PT["run"], results=RESULTS, e8_count_start=e8_count_start(PT), e8_smoothing=e8_smoothing(PT),
+            e8_steps=e8_model_steps(PT)
     log: f"{PTDIR}/logs/paper_section.log"
     script: "../scripts/perturbed_paper_section.py"
 

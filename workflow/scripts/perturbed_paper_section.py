@@ -30,7 +30,8 @@ def main(sm):
     e6sum = R.e6_summary(e6, unp)
     Path(sm.output[0]).write_text(R.paper_section(rows, {}, budget, e6sum, list(sm.input.figures),
                                                   e8_count_start=sm.params.e8_count_start,
-                                                  smoothing=sm.params.e8_smoothing))
+                                                  smoothing=sm.params.e8_smoothing,
+                                                  e8_steps=sm.params.e8_steps))
 
 
 if __name__ == "__main__":

@@ -496,6 +496,19 @@ def e8_smoothing(pc: dict) -> dict:
                                 ("model_step_at_eps", perturb_at_eps(pc, "e8", "model_step_at_eps")))}}
 
 
+def e8_model_steps(pc: dict) -> list[dict]:
+    """The force-model steps of the E8 route after J2 is switched on (the case's models from the
+    third on, each from the one before), for the report text: {model, path, arcs, step_rcond,
+    flat_step} from the case options ``model_step`` and ``path_arcs``."""
+    cc, where = pc["cases"]["e8"], "perturbed.cases.e8"
+    steps = []
+    for model in cc["models"][2:]:
+        step = case_model_step(cc, model, where)
+        steps.append({"model": model, "path": step.get("path", "tau"), "arcs": case_path_arcs(cc, model, where),
+                      "step_rcond": step.get("step_rcond", 0.0), "flat_step": step.get("flat_step", 0.0)})
+    return steps
+
+
 def e8_runs(pc: dict) -> list[tuple[str, float]]:
     """(model, n_rev) of the E8 solves the tables ask for (the solves they start from come with
     them): ``perturbed.e8.run_models`` (default: the case's models) × ``run_n_rev``, less the

@@ -304,9 +304,26 @@ def latex(tabs: dict) -> str:
     return "\n".join(out) + "\n"
 
 
-def e8_route_text(count_start: str, smoothing: dict) -> str:
+MODEL_TEX = {"unperturbed": "unperturbed", "j2": "$J_2$", "g44": "4$\\times$4",
+             "g44_moon_sun": "4$\\times$4 + Moon + Sun"}
+
+
+def e8_step_text(step: dict) -> str:
+    """One force-model step of the E8 route (:func:`perturbed.e8_model_steps`) in words."""
+    how = ["in arclength" if step["path"] == "arclength" else "in $\\tau$"]
+    if step["arcs"] > 1:
+        how.append(f"by multiple shooting over {step['arcs']} arcs")
+    if step["step_rcond"] > 0:
+        how.append(f"with Newton steps truncated below ${latex_number(step['step_rcond'])}\\,\\sigma_{{\\max}}$")
+    if step["flat_step"] > 0:
+        how.append("its end point found along the Jacobian's flattest direction where Newton's polish fails")
+    return f"to {MODEL_TEX.get(step['model'], step['model'])} ({', '.join(how)})"
+
+
+def e8_route_text(count_start: str, smoothing: dict, steps: list) -> str:
     """The sentences on how the E8 counts and models start (``count_start``: the config's
-    perturbed.e8.count_start; ``smoothing``: :func:`perturbed.e8_smoothing`, the ε values)."""
+    perturbed.e8.count_start; ``smoothing``: :func:`perturbed.e8_smoothing`, the ε values;
+    ``steps``: :func:`perturbed.e8_model_steps`, the force-model steps after $J_2$)."""
     eps = {k: latex_number(v) for k, v in smoothing.items()}
 
     def at(key):
@@ -318,15 +335,18 @@ def e8_route_text(count_start: str, smoothing: dict) -> str:
                     f"the angular range being moved at the smoothing $\\varepsilon={eps['eps_blend']}$ "
                     "between an $\\varepsilon$ homotopy up and one back down (moved at $\\varepsilon_f$ "
                     "the path crawls as burn arcs appear). "}[count_start]
-    return (counts + f"The perturbed counts start from the unperturbed one, $J_2$ switched on at "
+    text = (counts + f"The perturbed counts start from the unperturbed one, $J_2$ switched on at "
             f"{at('perturb_at_eps')}, then the force model changed at {at('model_step_at_eps')} by "
-            "blending the perturbing accelerations. ")
+            "blending the perturbing accelerations")
+    return text + (": " + "; then ".join(e8_step_text(s) for s in steps) if steps else "") + ". "
 
 
 def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figures: list, *,
-                  e8_count_start: str, smoothing: dict, resultsdir_macro=r"\resultsdir") -> str:
+                  e8_count_start: str, smoothing: dict, e8_steps: list,
+                  resultsdir_macro=r"\resultsdir") -> str:
     """LaTeX fragment of the §4.2 section; every number comes from the artifacts or the config.
-    ``e8_count_start``, ``smoothing``: how each E8 count and model starts (:func:`e8_route_text`)."""
+    ``e8_count_start``, ``smoothing``, ``e8_steps``: how each E8 count and model starts
+    (:func:`e8_route_text`)."""
     n_pass = sum(r["status"] == "pass" for r in rows)
     n_fail = sum(r["status"] == "fail" for r in rows)
     n_miss = sum(r["status"] == "missing" for r in rows)
@@ -341,7 +361,7 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
              "artifact and its reproduction notes; the 4$\\times$4 LEO runs start from the $J_2$ solution "
              "(the perturbing accelerations of the two models blended). Each departure date of the scan starts from the "
              "unperturbed extremal in the same way, so every date is an independent solve. "
-             + e8_route_text(e8_count_start, smoothing)
+             + e8_route_text(e8_count_start, smoothing, e8_steps)
              + f"Of the reproduction rows, {n_pass} pass, {n_fail} fail "
              f"and {n_miss} were not produced in this run (Table~\\ref{{tab:scoreboard}}).", ""]
     if budget:
