@@ -567,6 +567,9 @@ def test_e8_range_rows_say_which_counts_they_cover():
     rows = {(r["case"], r["quantity"]): r for r in R.reproduction_rows(PUB, R.ours(tabs, pay, {}, None), notes)}
     assert rows[("e8", "perturbation_costs_fuel")]["status"] == "pass"
     assert "n_rev = 200 " in rows[("e8", "fuel_increase_max_kg")]["note"]
+    # 150.0 d both: the transfer is not shortened, which the published statement says it is
+    assert rows[("e8", "perturbation_shortens_time_below_500")]["status"] == "fail"
+    assert rows[("e8", "time_decrease_max_days")]["ours"] == 0.0
     assert rows[("e8_g44_moon_sun_n500", "propellant_kg")]["status"] == "missing"
     assert R.e8_range_notes(tabs, [200]) == {}
 

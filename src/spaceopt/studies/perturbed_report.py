@@ -171,6 +171,12 @@ def ours(tabs: dict, payloads: dict, npzs: dict, budget: dict | None) -> dict:
         for n, u, p in pairs:
             if n == 500.0:
                 o[("e8", "dtime_500_days")] = p["tof_days"] - u["tof_days"]
+        # §4.2.2: the perturbations shorten the transfer by 0.554…1.024 d, except at 500 rev
+        shortening = [u["tof_days"] - p["tof_days"] for n, u, p in pairs if n != 500.0]
+        if shortening:
+            o[("e8", "perturbation_shortens_time_below_500")] = str(all(x > 0 for x in shortening)).lower()
+            o[("e8", "time_decrease_min_days")] = min(shortening)
+            o[("e8", "time_decrease_max_days")] = max(shortening)
     e9 = {r["model"]: r for r in tabs["e9"]}
     if "j2" in e9:
         for q in ("tof_days", "m_p_kg", "dv_m_s", "burn_h"):
@@ -209,7 +215,8 @@ MISS_NOTES = {
 }
 
 
-E8_RANGE = ("perturbation_costs_fuel", "fuel_increase_min_kg", "fuel_increase_max_kg", "dtime_500_days")
+E8_RANGE = ("perturbation_costs_fuel", "fuel_increase_min_kg", "fuel_increase_max_kg", "dtime_500_days",
+            "perturbation_shortens_time_below_500", "time_decrease_min_days", "time_decrease_max_days")
 
 
 def e8_range_notes(tabs: dict, e8_n: list) -> dict:
