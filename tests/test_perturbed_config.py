@@ -295,6 +295,31 @@ def test_interrupted_arclength_path_resumes_with_the_same_steps(tmp_path):
     assert not (tmp_path / "fold.npz").exists()
 
 
+def test_a_long_step_past_the_end_is_retaken_to_land_near_it():
+    """z = τ² (f = z − τ²): the end point at τ = 1 is interpolated linearly between the points
+    either side of it, off the curved path by (1 − τ_a)(τ_c − 1); with end_overshoot a step that
+    lands further past τ = 1 is retaken shorter, and the polish starts on the path."""
+    import numpy as np
+    from spaceopt.indirect.continuation import ArclengthContinuation, ArclengthOptions
+
+    def first_end_point(**kw):
+        seen = []
+
+        def ev(z, tau):
+            if tau == 1.0:
+                seen.append(float(z[0]))
+            return np.atleast_1d(z - tau ** 2), np.eye(1), np.array([-2.0 * tau]), 0, True
+
+        arc = ArclengthContinuation(ev, ArclengthOptions(verbose=False, h_init=0.7, h_max=0.7, **kw))
+        z, _ = arc.run(np.array([0.0]))
+        assert z[0] == pytest.approx(1.0, abs=1e-12)
+        return seen[0]
+
+    plain = abs(first_end_point() - 1.0)                  # (1 − 0.7)(τ_c − 1): 0.015
+    assert plain > 0.01
+    assert abs(first_end_point(end_overshoot=0.01) - 1.0) < 0.2 * plain
+    assert abs(first_end_point(end_overshoot=0.001) - 1.0) < 0.02 * plain
+
 def test_path_options_keep_every_option_but_the_step_sizes_of_the_other_kind():
     from spaceopt.indirect.chain import path_options
     from spaceopt.indirect.continuation import STEP_SIZES, ArclengthOptions, ContinuationOptions

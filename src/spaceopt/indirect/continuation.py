@@ -52,7 +52,13 @@ along v but goes straight where the valley curves, and lands where J is nearly s
 Measured at E8 450 rev, 4×4 → 4×4 + Moon + Sun at τ = 1 (10 arcs): σ_min 2.0e-5 (σ_max 3.2e3),
 g(0) = −4.7e-7, g = −3.4e-7, −5.5e-7, −1.4e-7, +1.9e-7 at s = 0.01, 0.015, 0.02, 0.03 (scaled
 unknowns), the root at s = 0.0227, where σ_min is 1.2e-4 and |F| 6e-10 after one Newton step
-(docs/perturbed-e6-e7-e8.md, "ninth session"). Written by hand
+(docs/perturbed-e6-e7-e8.md, "ninth session"). ``end_overshoot`` (arclength follower): the
+end point at τ = 1 is interpolated linearly between the last point before τ = 1 and the
+corrected point past it; a step whose corrected point lies past τ = 1 by more than
+``end_overshoot`` is retaken with h scaled by (1 − τ)/(τ_c − τ), so that it lands near τ = 1
+and the interpolation (whose error grows like the step squared) starts the polish from a
+point on the path (E8 500 rev, 4×4 → full: a step of h 0.3 from τ 0.80 crossed to τ = 1 and
+the polish stalled at |F| 5.6e-6, "tenth session"). Written by hand
 because the corrector-driven step control and the reuse of the propagated Jacobian have no
 counterpart in optimistix/diffrax (which integrate or solve, not both).
 """
@@ -92,6 +98,7 @@ class ContinuationOptions:
     flat_step: float = 0.0              # a failed final polish: the flattest direction's root (module docstring); 0 = none
     flat_max_steps: int = 20            # steps of flat_step marched at most
     flat_chord: int = 30                # chord steps per valley point; secant steps at most
+    end_overshoot: float = float("inf")  # arclength: a step past τ = 1 by more is retaken shorter (module docstring)
 
 
 @dataclass
@@ -559,6 +566,7 @@ class ArclengthContinuation(Continuation):
             h, F = opt.h_init, f - b
         else:
             z, tau, t, h, F = saved["z"], float(saved["tau"]), saved["tangent"], float(saved["h"]), saved["F"]
+        landings = 0
         while True:
             if self.stats.steps + self.stats.rejected > opt.max_steps:
                 raise self._diagnose("too many continuation steps", z, tau, h, F)
@@ -578,6 +586,11 @@ class ArclengthContinuation(Continuation):
                 h *= 0.3
                 if h < opt.h_min:
                     raise self._diagnose("step size underflow", z, tau, h, F)
+                continue
+            if uc[n] - 1.0 > opt.end_overshoot and landings < 5:
+                landings += 1                       # far past τ = 1: retake the step to land near it
+                h *= (1.0 - tau) / (uc[n] - tau)
+                self._log(f"past tau = 1 at {uc[n]:.4f}: step retaken with h={h:.3g}")
                 continue
             self.stats.steps += 1
             if uc[n] >= 1.0:                        # crossed τ = 1: interpolate, then polish

@@ -308,7 +308,7 @@ def case_model_step(cc: dict, model: str, path: str) -> dict:
     """Case option ``model_step`` ({model: settings}): how the warm start into that model is
     followed, ``path`` ('tau', the default: τ, then its fallbacks; 'arclength': the model blend
     in arclength at once) and the continuation options ``step_growth``, ``accepted_update``,
-    ``step_rcond``, ``flat_step`` (:class:`ContinuationOptions`). E8 names its full model (the
+    ``step_rcond``, ``flat_step``, ``end_overshoot`` (:class:`ContinuationOptions`). E8 names its full model (the
     4×4 → 4×4 + Moon + Sun step at 450-500 revolutions, docs/perturbed-e6-e7-e8.md, "ninth
     session"). Models not named get {}."""
     def read(cfg, key, where):
@@ -320,12 +320,12 @@ def case_model_step(cc: dict, model: str, path: str) -> dict:
             if k in checks:
                 if v not in checks[k]:
                     raise ConfigError(f"{where}.{key}.{k}", v, f"expected one of {', '.join(checks[k])}")
-            elif k in ("step_rcond", "flat_step"):
+            elif k in ("step_rcond", "flat_step", "end_overshoot"):
                 if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 <= v < 1:
                     raise ConfigError(f"{where}.{key}.{k}", v, "expected a number in [0, 1)")
             else:
-                raise ConfigError(f"{where}.{key}.{k}", v,
-                                  "unknown setting (expected path, step_growth, accepted_update, step_rcond, flat_step)")
+                raise ConfigError(f"{where}.{key}.{k}", v, "unknown setting (expected path, step_growth, "
+                                  "accepted_update, step_rcond, flat_step, end_overshoot)")
         return dict(val)
     return _per_model(cc, "model_step", model, path, {}, read)
 
