@@ -319,6 +319,16 @@ def test_a_long_step_past_the_end_is_retaken_to_land_near_it():
     assert plain > 0.01
     assert abs(first_end_point(end_overshoot=0.01) - 1.0) < 0.2 * plain
     assert abs(first_end_point(end_overshoot=0.001) - 1.0) < 0.02 * plain
+    # a retaken step that lands just short of τ = 1 ends the path there (no further retakes)
+    evals = []
+
+    def ev(z, tau):
+        evals.append(tau)
+        return np.atleast_1d(z - tau ** 2), np.eye(1), np.array([-2.0 * tau]), 0, True
+
+    arc = ArclengthContinuation(ev, ArclengthOptions(verbose=False, h_init=0.7, h_max=0.7, end_overshoot=0.01))
+    arc.run(np.array([0.0]))
+    assert arc.stats.history[-1]["tau"] == 1.0 and len(evals) < 20
 
 def test_path_options_keep_every_option_but_the_step_sizes_of_the_other_kind():
     from spaceopt.indirect.chain import path_options

@@ -54,11 +54,11 @@ g(0) = −4.7e-7, g = −3.4e-7, −5.5e-7, −1.4e-7, +1.9e-7 at s = 0.01, 0.01
 unknowns), the root at s = 0.0227, where σ_min is 1.2e-4 and |F| 6e-10 after one Newton step
 (docs/perturbed-e6-e7-e8.md, "ninth session"). ``end_overshoot`` (arclength follower): the
 end point at τ = 1 is interpolated linearly between the last point before τ = 1 and the
-corrected point past it; a step whose corrected point lies past τ = 1 by more than
-``end_overshoot`` is retaken with h scaled by (1 − τ)/(τ_c − τ), so that it lands near τ = 1
-and the interpolation (whose error grows like the step squared) starts the polish from a
-point on the path (E8 500 rev, 4×4 → full: a step of h 0.3 from τ 0.80 crossed to τ = 1 and
-the polish stalled at |F| 5.6e-6, "tenth session"). Written by hand
+corrected point past it, an error that grows like the step squared. With ``end_overshoot`` > 0
+a step whose corrected point lies past τ = 1 by more than that is retaken with h scaled by
+(1 − τ)/(τ_c − τ), so that it lands near τ = 1, and a point accepted within ``end_overshoot``
+below τ = 1 is carried to τ = 1 along its tangent: the polish starts on the path (E8 500 rev,
+4×4 → full: a step of h 0.3 from τ 0.80 crossed to τ = 1.10, "tenth session"). Written by hand
 because the corrector-driven step control and the reuse of the propagated Jacobian have no
 counterpart in optimistix/diffrax (which integrate or solve, not both).
 """
@@ -98,7 +98,7 @@ class ContinuationOptions:
     flat_step: float = 0.0              # a failed final polish: the flattest direction's root (module docstring); 0 = none
     flat_max_steps: int = 20            # steps of flat_step marched at most
     flat_chord: int = 30                # chord steps per valley point; secant steps at most
-    end_overshoot: float = float("inf")  # arclength: a step past τ = 1 by more is retaken shorter (module docstring)
+    end_overshoot: float = 0.0          # arclength: landing on τ = 1 (module docstring); 0 = none
 
 
 @dataclass
@@ -568,6 +568,11 @@ class ArclengthContinuation(Continuation):
             z, tau, t, h, F = saved["z"], float(saved["tau"]), saved["tangent"], float(saved["h"]), saved["F"]
         landings = 0
         while True:
+            if 0 < opt.end_overshoot and 0.0 <= 1.0 - tau <= opt.end_overshoot and t[-1] > 0:
+                ds = (1.0 - tau) / t[-1]                    # next to τ = 1: along the tangent
+                z, tau = z + ds * t[:n], 1.0
+                self.stats.history.append({"tau": 1.0, "h": ds, "iters": 0, "residual": _norm(F)})
+                break
             if self.stats.steps + self.stats.rejected > opt.max_steps:
                 raise self._diagnose("too many continuation steps", z, tau, h, F)
             u = np.concatenate([z, [tau]])
@@ -587,7 +592,7 @@ class ArclengthContinuation(Continuation):
                 if h < opt.h_min:
                     raise self._diagnose("step size underflow", z, tau, h, F)
                 continue
-            if uc[n] - 1.0 > opt.end_overshoot and landings < 5:
+            if 0 < opt.end_overshoot < uc[n] - 1.0 and landings < 5:
                 landings += 1                       # far past τ = 1: retake the step to land near it
                 h *= (1.0 - tau) / (uc[n] - tau)
                 self._log(f"past tau = 1 at {uc[n]:.4f}: step retaken with h={h:.3g}")
