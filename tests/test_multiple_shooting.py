@@ -103,3 +103,36 @@ def test_continuation_by_multiple_shooting_lands_on_the_single_shooting_extremal
     assert multi.stats["arcs"] == 3 and multi.stats["final_residual"] < 1e-9
     assert multi.stats["multiple_shooting"]["jacobian_evaluations"] > 0
     np.testing.assert_allclose(multi.z, single.z, rtol=1e-8, atol=1e-11)
+
+
+def test_a_failed_multiple_shooting_polish_goes_on_to_the_single_shooting_polish(monkeypatch):
+    """E1 OT, 15 → 16 N over three arcs: where the path reaches τ = 1 and only its polish fails
+    (E8 500 rev: nearly flat node-time directions), the end point's first block is polished by
+    single shooting, onto the same extremal, and the failure is in the statistics."""
+    tr = multirev.transfer_from_config(MR, "e1")
+    q = chain.ContinuationOptions(verbose=False)
+    ot = chain.solve_ot(chain.solve_lp(tr, q), 15.0, q)
+    split = dataclasses.replace(ot, shooting=dataclasses.replace(ot.shooting, path_arcs=3))
+    follow = chain._follow
+
+    def failing_polish(cont, z0, path, tau0=0.0):
+        z, stats = follow(cont, z0, path, tau0)
+        if tau0 == 0.0:                         # the multiple-shooting path: its polish "fails"
+            raise ConvergenceError("polish", {"reason": "final Newton polish did not converge", "tau": 1.0,
+                                              "z": (z * (1 + 1e-7)).tolist(), **stats})
+        return z, stats
+
+    monkeypatch.setattr(chain, "_follow", failing_polish)
+    multi = chain.continue_in_params(split, tr.params(thrust=16.0), q)
+    assert multi.stats["multiple_shooting"]["polish_failed"] == "polish"
+    assert multi.stats["final_residual"] < 1e-9
+    monkeypatch.setattr(chain, "_follow", follow)
+    single = chain.continue_in_params(ot, tr.params(thrust=16.0), q)
+    np.testing.assert_allclose(multi.z, single.z, rtol=1e-8, atol=1e-11)
+
+    def failing_path(cont, z0, path, tau0=0.0):
+        raise ConvergenceError("path", {"reason": "step size underflow", "tau": 0.5, "z": list(z0)})
+
+    monkeypatch.setattr(chain, "_follow", failing_path)
+    with pytest.raises(ConvergenceError, match="path"):
+        chain.continue_in_params(split, tr.params(thrust=16.0), q)
