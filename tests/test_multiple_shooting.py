@@ -12,6 +12,7 @@ import yaml
 from spaceopt.errors import ConvergenceError
 from spaceopt.indirect import chain
 from spaceopt.indirect import multiple_shooting as ms_
+from spaceopt.indirect.continuation import POLISH_FAILED
 from spaceopt.indirect.shooting import residual, shoot
 from spaceopt.studies import multirev
 from spaceopt.studies import perturbed as P
@@ -118,7 +119,7 @@ def test_a_failed_multiple_shooting_polish_goes_on_to_the_single_shooting_polish
     def failing_polish(cont, z0, path, tau0=0.0):
         z, stats = follow(cont, z0, path, tau0)
         if tau0 == 0.0:                         # the multiple-shooting path: its polish "fails"
-            raise ConvergenceError("polish", {"reason": "final Newton polish did not converge", "tau": 1.0,
+            raise ConvergenceError("polish", {"reason": POLISH_FAILED, "tau": 1.0,
                                               "z": (z * (1 + 1e-7)).tolist(), **stats})
         return z, stats
 

@@ -31,8 +31,8 @@ import numpy as np
 
 from ..errors import ConvergenceError
 from . import hamiltonians as hm
-from .continuation import (STEP_SIZES, ArclengthContinuation, ArclengthOptions, Continuation,
-                           ContinuationOptions)
+from .continuation import (POLISH_FAILED, STEP_SIZES, ArclengthContinuation, ArclengthOptions,
+                           Continuation, ContinuationOptions)
 from .flow import Model, field as flow_field
 from .multiple_shooting import MultipleShooting, node_positions, start_nodes
 from .multiple_shooting import residual as multiple_residual, shoot as multiple_shoot
@@ -157,7 +157,7 @@ def _run_multiple(sh: Shooting, z0, prm, label, options, path, arcs):
     try:
         Z, stats = _follow(cont, Z0, path)
     except ConvergenceError as exc:
-        if exc.diagnosis.get("reason") != "final Newton polish did not converge":
+        if exc.diagnosis.get("reason") != POLISH_FAILED:
             raise
         # the path reached τ = 1 but the multiple-shooting polish failed: its end point goes to
         # the single-shooting polish, which lacks the nearly flat node-time directions (E8 500

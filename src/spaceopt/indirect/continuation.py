@@ -120,6 +120,7 @@ class ContinuationStats:
 
 
 GROWTH = ("iterations", "residual")
+POLISH_FAILED = "final Newton polish did not converge"     # the diagnosis reason (chain._run_multiple)
 ACCEPTED_UPDATES = ("always", "revert")
 ITERATION_GROWTH = {1: 2.0, 2: 1.5, 3: 1.2}
 
@@ -404,7 +405,7 @@ class Continuation:
         self.stats.residual = nF
         self.stats.wall_time_s = time.perf_counter() - t_start
         if nF > opt.tol_final * 1e3:
-            raise self._diagnose("final Newton polish did not converge", z, tau, h, F)
+            raise self._diagnose(POLISH_FAILED, z, tau, h, F)
         self._log(f"{tag}: |F|={nF:.2e} steps={self.stats.steps} rejected={self.stats.rejected} "
                   f"jacobians={self.stats.jacobians} ({self.stats.wall_time_s:.1f} s)")
         return z, J

@@ -245,7 +245,8 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
         sol = dataclasses.replace(sol, prm={**sol.prm, "epoch_offset_s": jnp.asarray(shift)})
         prm_to = {**prm_to, "epoch_offset_s": jnp.asarray(0.0)}
     same_count = sol.transfer.n_rev == tr_to.n_rev
-    if same_count and model_step_eps is not None and sol.transfer.perturbations != tr_to.perturbations:
+    new_model = same_count and sol.transfer.perturbations != tr_to.perturbations
+    if new_model and model_step_eps is not None:
         # new force model at a larger smoothing ε, followed in arclength (E7: J2 → 4×4 + Moon +
         # Sun; at ε_f its path stalls at τ 0.08)
         out = chain.continue_in_params_smoothed(sol, prm_to, eps_smooth=model_step_eps, options=options,
@@ -257,9 +258,9 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
         # and where its end point is singular by the Newton homotopy in the model (E8: the
         # blend converges at 200, 300-400 rev; at 250 both its τ and arclength paths reach
         # τ = 1 with |F| ~ 3e-5 and the polish fails, while the Newton homotopy converges)
-        if same_count and sol.transfer.perturbations != tr_to.perturbations and model_path == "arclength":
+        if new_model and model_path == "arclength":
             tries = [(chain.continue_in_model, "arclength", "arclength")]
-        elif same_count and sol.transfer.perturbations != tr_to.perturbations:
+        elif new_model:
             tries = [(chain.continue_in_model, "tau", "tau"), (chain.continue_in_params, "tau", "newton tau"),
                      (chain.continue_in_model, "arclength", "arclength")]
         else:
