@@ -225,17 +225,21 @@ def test_residual_step_growth_follows_a_path_with_a_small_newton_basin():
 def test_interrupted_tau_path_resumes_from_its_checkpoint(tmp_path):
     """A τ path stopped part-way (here by an exception in the evaluation) resumes from its last
     accepted point when run again with the same label and start, and takes the same steps as
-    the uninterrupted run (one extra evaluation, the restart); the file is removed at the end;
-    another start does not take the checkpoint."""
+    the uninterrupted run (one extra evaluation, the restart), and its wall time includes the
+    interrupted run's up to the checkpoint; the file is removed at the end; another start does
+    not take the checkpoint."""
+    import time
     import numpy as np
-    from spaceopt.indirect.continuation import Checkpoint, Continuation, ContinuationOptions
+    from spaceopt.indirect.continuation import Checkpoint, Continuation, ContinuationOptions, resumed_wall_time
 
     calls = {"n": 0, "stop": None}
 
     def ev(z, tau):
         calls["n"] += 1
-        if calls["stop"] is not None and calls["n"] > calls["stop"]:
-            raise KeyboardInterrupt
+        if calls["stop"] is not None:
+            if calls["n"] > calls["stop"]:
+                raise KeyboardInterrupt
+            time.sleep(0.005)
         u = 300.0 * (z[0] - np.sin(5 * tau) / 5)
         d = 1e-4 * 300.0 / (1 + u * u)
         return np.array([1e-4 * np.arctan(u)]), np.array([[d]]), np.array([-d * np.cos(5 * tau)]), 0, True
@@ -249,10 +253,15 @@ def test_interrupted_tau_path_resumes_from_its_checkpoint(tmp_path):
         Continuation(ev, opt()).run(np.array([0.0]))
     saved = list((tmp_path / "ck").glob("*.npz"))
     assert [p.name for p in saved] == ["blend_n450.npz"]
+    before = float(np.load(saved[0])["wall_time_s"])
+    assert before > 0.005
     calls.update(n=0, stop=None)
     resumed = Continuation(ev, opt())
     z, _ = resumed.run(np.array([0.0]))
     assert z[0] == z_whole[0]
+    assert resumed.stats.resumed_wall_time_s == before < resumed.stats.wall_time_s
+    assert resumed_wall_time({"solver": {"path": resumed.stats.as_dict(), "arcs": [resumed.stats.as_dict()]},
+                              "wall_time_s": 1.0}) == 2 * before
     assert resumed.stats.jacobians == whole.stats.jacobians + 1 and resumed.stats.steps == whole.stats.steps
     assert calls["n"] < total
     assert not (tmp_path / "ck").exists()

@@ -10,6 +10,7 @@ from _step import run_step  # noqa: E402
 
 from spaceopt import artifacts  # noqa: E402
 from spaceopt.errors import ConvergenceError  # noqa: E402
+from spaceopt.indirect.continuation import resumed_wall_time  # noqa: E402
 from spaceopt.studies import perturbed as P  # noqa: E402
 
 
@@ -44,8 +45,12 @@ def main(sm):
     t0 = time.perf_counter()
     artifacts.clear_failures(out)
 
+    def wall_time(record):
+        """This run's wall time plus what its resumed paths spent in earlier, interrupted runs."""
+        return time.perf_counter() - t0 + resumed_wall_time(record)
+
     def fail(exc, suffix):
-        artifacts.write_failure(artifacts.failure_path(out, suffix), exc, cfg, time.perf_counter() - t0)
+        artifacts.write_failure(artifacts.failure_path(out, suffix), exc, cfg, wall_time(exc.diagnosis))
 
     try:
         if sm.params.source == "chain":
@@ -75,7 +80,7 @@ def main(sm):
     except ConvergenceError as exc:
         fail(exc, ".failure.json")
         raise
-    P.save(sol, out, cfg, time.perf_counter() - t0, extra,
+    P.save(sol, out, cfg, wall_time(sol.stats), extra,
            samples_per_rev=cfg["numerics"]["samples_per_rev"])
     shutil.rmtree(out.with_suffix(".checkpoints"), ignore_errors=True)   # solved: none needed
 

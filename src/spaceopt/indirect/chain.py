@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
 from dataclasses import dataclass, field
 from functools import partial
 
@@ -131,10 +130,8 @@ def _path_tolerances(sh: Shooting):
 
 
 def _follow(cont, z0, path, tau0=0.0):
-    t0 = time.perf_counter()
     z, _ = cont.run(z0, tau0=tau0)
     stats = cont.stats.as_dict()
-    stats["wall_time_s"] = time.perf_counter() - t0
     if path != "tau":
         stats["path"] = path
     return np.asarray(z), stats

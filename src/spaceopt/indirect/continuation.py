@@ -110,13 +110,15 @@ class ContinuationStats:
     integration_steps: int = 0
     residual: float = float("nan")
     wall_time_s: float = 0.0
+    resumed_wall_time_s: float = 0.0    # of wall_time_s, spent by earlier runs (checkpoint_dir)
     history: list = field(default_factory=list)
 
     def as_dict(self):
         return {"steps": self.steps, "rejected_steps": self.rejected,
                 "jacobian_evaluations": self.jacobians, "residual_evaluations": self.residuals,
                 "integration_steps_total": self.integration_steps,
-                "final_residual": self.residual, "wall_time_s": self.wall_time_s}
+                "final_residual": self.residual, "wall_time_s": self.wall_time_s,
+                "resumed_wall_time_s": self.resumed_wall_time_s}
 
 
 GROWTH = ("iterations", "residual")
@@ -158,7 +160,8 @@ class Checkpoint:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=self.path.parent, suffix=".npz")
         with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, key=self.key, **state, **{k: getattr(stats, k) for k in self.COUNTERS})
+            np.savez(fh, key=self.key, **state, wall_time_s=stats.wall_time_s,
+                 **{k: getattr(stats, k) for k in self.COUNTERS})
         os.replace(tmp, self.path)
 
     def remove(self):
@@ -167,6 +170,17 @@ class Checkpoint:
             self.path.parent.rmdir()
         except OSError:
             pass
+
+
+def resumed_wall_time(record) -> float:
+    """The wall time that the paths in ``record`` (solver statistics or a diagnosis: nested
+    dicts and lists of :meth:`ContinuationStats.as_dict`) spent in earlier, interrupted runs."""
+    if isinstance(record, dict):
+        return float(record.get("resumed_wall_time_s") or 0.0) + sum(
+            resumed_wall_time(v) for k, v in record.items() if k != "resumed_wall_time_s")
+    if isinstance(record, (list, tuple)):
+        return sum(resumed_wall_time(v) for v in record)
+    return 0.0
 
 
 def _norm(v):
@@ -208,11 +222,13 @@ class Continuation:
             raise ValueError(f"accepted_update {self.opt.accepted_update!r}: expected one of {ACCEPTED_UPDATES}")
         self.stats = ContinuationStats()
         self._h_cap = float("inf")      # 0.8 of the last rejected step ('residual' growth)
+        self._t_start = time.perf_counter()     # run() restarts it (_elapsed)
         self.last_rejection = ""        # why the corrector gave up last (_correct)
 
     def _resume(self, z0, tau0, tau1):
         """(checkpoint, saved state or None) of this path (``checkpoint_dir``; (None, None) without
-        one); a saved state also restores the counters and the step cap."""
+        one); a saved state also restores the counters, the step cap and the wall time spent on
+        the path so far (the clock of :meth:`_elapsed` starts that much earlier)."""
         if not self.opt.checkpoint_dir:
             return None, None
         checkpoint = Checkpoint(self.opt.checkpoint_dir, self.opt.label, z0, tau0, tau1)
@@ -221,6 +237,8 @@ class Continuation:
             for k in Checkpoint.COUNTERS:
                 setattr(self.stats, k, int(saved[k]))
             self._h_cap = float(saved["h_cap"])
+            self.stats.resumed_wall_time_s = float(saved.get("wall_time_s", 0.0))
+            self._t_start -= self.stats.resumed_wall_time_s
             self._log(f"resumed from {checkpoint.path} at tau={float(saved['tau']):.6f} (h={float(saved['h']):.3g})")
         return checkpoint, saved
 
@@ -240,12 +258,22 @@ class Continuation:
             f, _, _, _, ok = self.polish(z, tau)
         return np.asarray(f), bool(ok)
 
+    def _elapsed(self):
+        """Wall time on this path: since :meth:`run` started, plus that of earlier runs resumed."""
+        return time.perf_counter() - self._t_start
+
+    def _save(self, checkpoint, **state):
+        """The checkpoint after an accepted step (:meth:`Checkpoint.save`), with the wall time."""
+        self.stats.wall_time_s = self._elapsed()
+        checkpoint.save(self.stats, **state)
+
     def _log(self, msg):
         if self.opt.verbose:
             print(f"[{self.opt.label}] {msg}", file=sys.stderr, flush=True)
 
     def _diagnose(self, reason, z, tau, h, F):
         self.stats.residual = _norm(F) if F is not None else float("nan")
+        self.stats.wall_time_s = self._elapsed()
         return ConvergenceError(
             f"{self.opt.label}: continuation failed at tau={tau:.6g} ({reason})",
             {"reason": reason, "tau": tau, "step": h, "z": np.asarray(z).tolist(),
@@ -253,7 +281,7 @@ class Continuation:
              "history": self.stats.history[-20:]})
 
     def run(self, z0, tau0=0.0, tau1=1.0, b=None):
-        t_start = time.perf_counter()
+        self._t_start = time.perf_counter()
         opt = self.opt
         z = np.asarray(z0, dtype=float).copy()
         span = tau1 - tau0
@@ -305,7 +333,7 @@ class Continuation:
                           f"jac={self.stats.jacobians}")
                 h = self._grow(h, iters, nF, opt.h_max * abs(span))
                 if checkpoint:
-                    checkpoint.save(self.stats, z=z, z_eval=zt, tau=tau, h=h, b=b, h_cap=self._h_cap,
+                    self._save(checkpoint, z=z, z_eval=zt, tau=tau, h=h, b=b, h_cap=self._h_cap,
                                     tangent=prev_tangent[0], tangent_h=prev_tangent[1])
             else:
                 self._reject(tau, h)
@@ -319,7 +347,7 @@ class Continuation:
         if self.polish is not self.evaluate:
             f, J, ftau, ok = self._eval(z, tau1, final=True)
             F = f
-        out = self._polish(z, J, F, tau1, h, t_start, _solve, "done")
+        out = self._polish(z, J, F, tau1, h, _solve, "done")
         if checkpoint:
             checkpoint.remove()
         return out
@@ -387,7 +415,7 @@ class Continuation:
         self.last_rejection = f"|F| {' -> '.join(v if isinstance(v, str) else f'{v:.2e}' for v in norms) or '-'}: {why}"
         return False, x, F, ev, nF, evals
 
-    def _polish(self, z, J, F, tau, h, t_start, solve, tag):
+    def _polish(self, z, J, F, tau, h, solve, tag):
         """Final Newton iterations at τ (polishing tolerances) while |F| > tol_final and it does not
         double; records the statistics, raises the diagnosis when |F| stays above 1e3 tol_final.
         ``solve(J, r, rcond)``: the step's linear solve. With ``step_rcond``: truncated-SVD steps
@@ -403,7 +431,7 @@ class Continuation:
                 if ok and np.all(np.isfinite(f)):
                     z, J, F, nF = self._newton_polish(root, J_root, f, tau, solve, 0.0, at_root=True)
         self.stats.residual = nF
-        self.stats.wall_time_s = time.perf_counter() - t_start
+        self.stats.wall_time_s = self._elapsed()
         if nF > opt.tol_final * 1e3:
             raise self._diagnose(POLISH_FAILED, z, tau, h, F)
         self._log(f"{tag}: |F|={nF:.2e} steps={self.stats.steps} rejected={self.stats.rejected} "
@@ -547,7 +575,7 @@ class ArclengthContinuation(Continuation):
     def run(self, z0, tau0=0.0, tau1=1.0, b=None):
         if (tau0, tau1) != (0.0, 1.0):
             raise ValueError("arclength continuation runs from tau = 0 to 1")
-        t_start = time.perf_counter()
+        self._t_start = time.perf_counter()
         opt = self.opt
         z = np.asarray(z0, dtype=float).copy()
         tau = 0.0
@@ -620,10 +648,10 @@ class ArclengthContinuation(Continuation):
                       f"dtau/ds={t[-1]:+.3f} jac={self.stats.jacobians}")
             h = self._grow(h, iters, nF, opt.h_max)
             if checkpoint:
-                checkpoint.save(self.stats, z=z, tau=tau, tangent=t, h=h, b=b, F=F, h_cap=self._h_cap)
+                self._save(checkpoint, z=z, tau=tau, tangent=t, h=h, b=b, F=F, h_cap=self._h_cap)
         # polish at τ = 1
         f, J, ftau, ok = self._eval(z, 1.0, final=True)
-        out = self._polish(z, J, f, 1.0, h, t_start, _lstsq, "done (arclength)")
+        out = self._polish(z, J, f, 1.0, h, _lstsq, "done (arclength)")
         if checkpoint:
             checkpoint.remove()
         return out
