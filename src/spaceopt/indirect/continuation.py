@@ -174,10 +174,12 @@ class Checkpoint:
 
 def resumed_wall_time(record) -> float:
     """The wall time that the paths in ``record`` (solver statistics or a diagnosis: nested
-    dicts and lists of :meth:`ContinuationStats.as_dict`) spent in earlier, interrupted runs."""
+    dicts and lists of :meth:`ContinuationStats.as_dict`) spent in earlier, interrupted runs.
+    A record's own ``resumed_wall_time_s`` counts only where nothing nested in it holds one: a
+    stage sum (``chain._merge_stats``) is not counted twice."""
     if isinstance(record, dict):
-        return float(record.get("resumed_wall_time_s") or 0.0) + sum(
-            resumed_wall_time(v) for k, v in record.items() if k != "resumed_wall_time_s")
+        nested = sum(resumed_wall_time(v) for v in record.values() if isinstance(v, (dict, list, tuple)))
+        return nested or float(record.get("resumed_wall_time_s") or 0.0)
     if isinstance(record, (list, tuple)):
         return sum(resumed_wall_time(v) for v in record)
     return 0.0
