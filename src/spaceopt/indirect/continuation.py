@@ -161,7 +161,7 @@ class Checkpoint:
         fd, tmp = tempfile.mkstemp(dir=self.path.parent, suffix=".npz")
         with os.fdopen(fd, "wb") as fh:
             np.savez(fh, key=self.key, **state, wall_time_s=stats.wall_time_s,
-                 **{k: getattr(stats, k) for k in self.COUNTERS})
+                     **{k: getattr(stats, k) for k in self.COUNTERS})
         os.replace(tmp, self.path)
 
     def remove(self):
@@ -336,7 +336,7 @@ class Continuation:
                 h = self._grow(h, iters, nF, opt.h_max * abs(span))
                 if checkpoint:
                     self._save(checkpoint, z=z, z_eval=zt, tau=tau, h=h, b=b, h_cap=self._h_cap,
-                                    tangent=prev_tangent[0], tangent_h=prev_tangent[1])
+                               tangent=prev_tangent[0], tangent_h=prev_tangent[1])
             else:
                 self._reject(tau, h)
                 h *= 0.3
