@@ -705,3 +705,20 @@ def test_a_failed_polish_finds_the_root_along_the_flattest_direction():
     z, stats = polish(flat_step=0.004)
     assert z == pytest.approx([1e-4, 0.01], abs=1e-12)
     assert stats.residuals > 0
+
+
+def test_e8_figure_breaks_the_line_at_a_missing_count(tmp_path, monkeypatch):
+    """Fig. 4.2.2.5: a model without a count the others have (the full model at 450) gets a gap
+    there, not a segment bridging it; models keep the rows' order."""
+    from spaceopt.studies import perturbed_figures as F
+    drawn = []
+    monkeypatch.setattr(F, "save_figure", lambda fig, path: drawn.extend(
+        (ln.get_label(), list(ln.get_xdata()), list(ln.get_ydata())) for ln in fig.axes[0].lines))
+    rows = [{"n_rev": n, "model": m, "propellant_kg": kg, "tof_days": 0.6 * n}
+            for m, pts in (("unperturbed", {400: 156.5, 450: 154.1, 500: 152.5}),
+                           ("g44_moon_sun", {400: 159.6, 500: 156.8}))
+            for n, kg in pts.items()]
+    F.fuel_vs_revs(rows, tmp_path / "fig")
+    assert [d[0] for d in drawn] == ["unperturbed", "g44_moon_sun"]
+    full = drawn[1]
+    assert full[1] == [400, 450, 500] and full[2][0] == 159.6 and math.isnan(full[2][1]) and full[2][2] == 156.8

@@ -144,12 +144,19 @@ def costates_vs_date(dates: list, costates: list, path, title="E6: initial costa
 
 
 def fuel_vs_revs(rows: list, path, title="E8: propellant vs revolutions and vs Δt"):
+    """Fig. 4.2.2.5: m_p against n and against Δt, one line per model. A count that another
+    model has and this one lacks (skipped or failed, e.g. the full model at 450) breaks the
+    line there instead of being bridged. Models are drawn in the rows' order (the case's: each
+    later model on top of the one it starts from)."""
     fig, axes = plt.subplots(1, 2, figsize=(11, 3.8))
-    for model in sorted({r["model"] for r in rows}):
-        rr = sorted((r for r in rows if r["model"] == model), key=lambda r: r["n_rev"])
+    counts = sorted({r["n_rev"] for r in rows})
+    for model in dict.fromkeys(r["model"] for r in rows):
+        by_n = {r["n_rev"]: r for r in rows if r["model"] == model}
+        m_p = [by_n[n]["propellant_kg"] if n in by_n else np.nan for n in counts]
+        tof = [by_n[n]["tof_days"] if n in by_n else np.nan for n in counts]
         c = COLORS.get(model, "k")
-        axes[0].plot([r["n_rev"] for r in rr], [r["propellant_kg"] for r in rr], "o-", color=c, label=model)
-        axes[1].plot([r["tof_days"] for r in rr], [r["propellant_kg"] for r in rr], "o-", color=c, label=model)
+        axes[0].plot(counts, m_p, "o-", color=c, label=model)
+        axes[1].plot(tof, m_p, "o-", color=c, label=model)
     axes[0].set_xlabel("revolutions"); axes[1].set_xlabel("Δt, days")
     for ax in axes:
         ax.set_ylabel("m_p, kg")
