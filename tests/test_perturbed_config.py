@@ -707,6 +707,44 @@ def test_a_failed_polish_finds_the_root_along_the_flattest_direction():
     assert stats.residuals > 0
 
 
+def test_the_flat_march_turns_where_the_valley_curves_away_from_its_root():
+    """flat_step, both sides: on the valley x = y² of f = (x − y², g(y) + 100 (x − y²)²) with
+    g(y) = 10⁻⁸ + 10⁻⁶ y + 10⁻³ y² − y³, the slope σ_min = 10⁻⁶ sends Newton's direction to y < 0,
+    where g only grows (its curvature wins beyond y ≈ −10⁻³); the root lies at y ≈ 0.003. The
+    march turns once |g| has doubled and brackets the root with the steps left (E8 450 rev,
+    4×4 → full with h_max 0.1: docs/perturbed-e6-e7-e8.md, "twelfth session")."""
+    import numpy as np
+
+    from spaceopt.errors import ConvergenceError
+    from spaceopt.indirect.continuation import Continuation, ContinuationOptions
+
+    coeffs = (1e-8, 1e-6, 1e-3, -1.0)              # g(y) = Σ c_k y^k
+
+    def residual(z, tau):
+        valley = z[0] - z[1] ** 2
+        g = sum(c * z[1] ** k for k, c in enumerate(coeffs))
+        return np.array([valley, g + 100.0 * valley ** 2]), True
+
+    def ev(z, tau):
+        valley, y = z[0] - z[1] ** 2, z[1]
+        dg = coeffs[1] + 2 * coeffs[2] * y + 3 * coeffs[3] * y ** 2
+        J = np.array([[1.0, -2.0 * y], [200.0 * valley, dg - 400.0 * y * valley]])
+        return residual(z, tau)[0], J, np.zeros(2), 0, True
+
+    def polish(max_steps):
+        cont = Continuation(ev, ContinuationOptions(verbose=False, tol_final=1e-14, flat_step=1e-3,
+                                                    flat_max_steps=max_steps),
+                            polish=lambda z, tau: ev(z, tau), residual=residual)
+        return cont.run(np.zeros(2), tau0=1.0)[0]
+
+    y_root = [r.real for r in np.roots(coeffs[::-1]) if abs(r.imag) < 1e-12 and r.real > 0]
+    assert len(y_root) == 1 and 0.002 < y_root[0] < 0.004
+    z = polish(max_steps=20)
+    assert z == pytest.approx([y_root[0] ** 2, y_root[0]], abs=1e-10)
+    with pytest.raises(ConvergenceError, match="final Newton polish"):
+        polish(max_steps=3)                         # all three steps spent on Newton's side
+
+
 def test_e8_figure_breaks_the_line_at_a_missing_count(tmp_path, monkeypatch):
     """Fig. 4.2.2.5: a model without a count the others have (the full model at 450) gets a gap
     there, not a segment bridging it; models keep the rows' order."""

@@ -46,8 +46,8 @@ the final polish fails, a root is sought along the flattest direction of J (Lyap
 reduction, :meth:`Continuation._flat_root`): with v, u the last right and left singular vectors,
 the points x with v·(x − z) = s whose residual has no component outside u form a curve (the
 valley); on it f reduces to the scalar g(s) = u·f, found by chord steps with J held fixed, and
-s is marched in steps of ``flat_step`` until g changes sign, then refined by regula falsi, from
-residual evaluations only (``residual``, no sensitivities). Newton's step has the right length
+s is marched in steps of ``flat_step`` until g changes sign (the other way where |g| doubles
+first), then refined by regula falsi, from residual evaluations only (``residual``, no sensitivities). Newton's step has the right length
 along v but goes straight where the valley curves, and lands where J is nearly singular.
 Measured at E8 450 rev, 4×4 → 4×4 + Moon + Sun at τ = 1 (10 arcs): σ_min 2.0e-5 (σ_max 3.2e3),
 g(0) = −4.7e-7, g = −3.4e-7, −5.5e-7, −1.4e-7, +1.9e-7 at s = 0.01, 0.015, 0.02, 0.03 (scaled
@@ -472,9 +472,9 @@ class Continuation:
         valley {x : v·(x − z) = s, U_rᵀ f(x) = 0} (U_r: every left vector but u) f reduces to the
         scalar g(s) = u·f. Each valley point by chord steps with J held fixed, x ← x −
         V_r diag(σ_r)⁻¹ U_rᵀ f(x) (they leave s unchanged); s marches by ``flat_step`` from 0 in
-        Newton's direction (−sign g(0)), each start extrapolated from the last two points (a point
-        whose chord steps do not converge is skipped), until g changes sign; regula falsi on
-        that bracket then finds the root (the valley point of least |g|, within 1e-3 |g(0)|).
+        Newton's direction (−sign g(0)) until g changes sign (:meth:`_march_valley`), and with
+        the steps left the other way where |g| doubles first; regula falsi on that bracket then
+        finds the root (the valley point of least |g|, within 1e-3 |g(0)|).
         Where the chord through z does not reach the valley (|f_r| ≥ 1e-2 |g|), its best point
         if it at least halved |f|₂, else None. Residual evaluations only (``residual``), no
         Jacobians."""
@@ -504,21 +504,14 @@ class Continuation:
             self._log(f"  flat direction (sigma {S[-1]:.2e}): the valley through the point not reached "
                       f"(|f_r| {reg:.2e}, g {g:.2e}){'; its chord point kept' if gain else ''}")
             return x if gain else None
-        pts, tol_valley = [(0.0, x, g)], 1e-2 * abs(g)
-        step = -np.sign(g) * opt.flat_step
-        self._log(f"  flat direction (sigma {S[-1]:.2e} of {S[0]:.2e}): g(0) = {g:+.3e}, marching s by {step:+.3g}")
-        for k in range(1, opt.flat_max_steps + 1):
-            s = k * step
-            (s1, x1, _), prev = pts[-1], pts[-2] if len(pts) > 1 else None
-            start = x1 + (s - s1) * (v if prev is None else (x1 - prev[1]) / (s1 - prev[0]))
-            x, reg, g = on_valley(start)
-            self._log(f"  s = {s:+.4g}: g = {g:+.3e} (|f_r| {reg:.1e})")
-            if not reg < tol_valley:
-                continue
-            pts.append((s, x, g))
-            if np.sign(g) != np.sign(pts[-2][2]):
-                break
-        else:
+        origin, tol_valley = (0.0, x, g), 1e-2 * abs(g)
+        newton = -np.sign(g) * opt.flat_step
+        self._log(f"  flat direction (sigma {S[-1]:.2e} of {S[0]:.2e}): g(0) = {g:+.3e}, marching s by {newton:+.3g}")
+        pts, used = self._march_valley(on_valley, v, origin, newton, opt.flat_max_steps, tol_valley)
+        if np.sign(pts[-1][2]) == np.sign(g) and used < opt.flat_max_steps:
+            self._log(f"  |g| more than doubled: the root lies the other way, marching s by {-newton:+.3g}")
+            pts, _ = self._march_valley(on_valley, v, origin, -newton, opt.flat_max_steps - used, tol_valley)
+        if np.sign(pts[-1][2]) == np.sign(g):
             return None
         # regula falsi (Illinois) on the bracket: g is not monotone on the scale of a step
         # (E8 500: g = −6.9e-8 at s = −0.025, −1.2e-7 at the plain secant's −0.0230)
@@ -543,6 +536,30 @@ class Continuation:
             else:
                 (sa, xa, ga), (sb, xb, gb) = (sb, xb, gb), (s, x, g)
         return best[1]
+
+    def _march_valley(self, on_valley, v, origin, step, budget, tol_valley):
+        """March s = k·step (k = 1 … budget) along the valley from ``origin`` = (0, x, g(0)), each
+        start extrapolated from the last two points, a point whose chord steps do not reach the
+        valley (|f_r| ≥ ``tol_valley``) skipped: (points, steps used). It stops at a sign change
+        of g (the last two points bracket the root) or where |g| exceeds 2 |g(0)| with g(0)'s
+        sign: the valley's curvature outweighs its slope σ_min, and the root lies the other way
+        (E8 450, 4×4 → full with h_max 0.1, docs/perturbed-e6-e7-e8.md "twelfth session":
+        g(0) +2.4e-7, +6e-7 one step along Newton's direction and growing to +1.8e-6 at
+        s = −0.1; against it +2.85e-7, then −1.15e-7 at s = +0.01, the root at +0.0077)."""
+        pts, g0 = [origin], origin[2]
+        for k in range(1, budget + 1):
+            s = k * step
+            (s1, x1, _), prev = pts[-1], pts[-2] if len(pts) > 1 else None
+            start = x1 + (s - s1) * (v if prev is None else (x1 - prev[1]) / (s1 - prev[0]))
+            x, reg, g = on_valley(start)
+            self._log(f"  s = {s:+.4g}: g = {g:+.3e} (|f_r| {reg:.1e})")
+            if not reg < tol_valley:
+                continue
+            pts.append((s, x, g))
+            if np.sign(g) != np.sign(g0) or abs(g) > 2.0 * abs(g0):
+                return pts, k
+        return pts, budget
+
 
 STEP_SIZES = ("h_init", "h_min", "h_max", "max_steps")     # the options ArclengthOptions redefines
 
