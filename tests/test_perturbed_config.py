@@ -673,6 +673,22 @@ def test_truncated_svd_steps_leave_a_nearly_flat_direction_alone():
     assert z[0] == pytest.approx(1.0, abs=1e-12) and z[1] == 0.0
 
 
+def _final_polish(residual, jacobian, **options):
+    """(z, statistics) of :class:`Continuation`'s final polish alone (τ₀ = 1) from (0, 0), for a
+    residual f(z, τ) → (f, ok) of two unknowns with the Jacobian ``jacobian(z)``."""
+    import numpy as np
+
+    from spaceopt.indirect.continuation import Continuation, ContinuationOptions
+
+    def ev(z, tau):
+        return residual(z, tau)[0], jacobian(z), np.zeros(2), 0, True
+
+    # a polish distinct from ``evaluate``: at τ₀ = τ₁ = 1 the homotopy's b would zero F otherwise
+    cont = Continuation(ev, ContinuationOptions(verbose=False, **options), polish=lambda z, tau: ev(z, tau),
+                        residual=residual)
+    return cont.run(np.zeros(2), tau0=1.0)[0], cont.stats
+
+
 def test_a_failed_polish_finds_the_root_along_the_flattest_direction():
     """flat_step: f = (x − y², 10⁻⁶ (y − 0.01) + 100 (x − y²)²) from (0, 0). The flat direction is y
     (σ = 10⁻⁶); Newton's step lands off the valley x = y², where the second row's curvature
@@ -683,26 +699,19 @@ def test_a_failed_polish_finds_the_root_along_the_flattest_direction():
     import numpy as np
 
     from spaceopt.errors import ConvergenceError
-    from spaceopt.indirect.continuation import Continuation, ContinuationOptions
 
     def residual(z, tau):
         valley = z[0] - z[1] ** 2
         return np.array([valley, 1e-6 * (z[1] - 0.01) + 100.0 * valley ** 2]), True
 
-    def ev(z, tau):
+    def jacobian(z):
         valley = z[0] - z[1] ** 2
-        J = np.array([[1.0, -2.0 * z[1]], [200.0 * valley, 1e-6 - 400.0 * z[1] * valley]])
-        return residual(z, tau)[0], J, np.zeros(2), 0, True
-
-    def polish(**kw):
-        cont = Continuation(ev, ContinuationOptions(verbose=False, tol_final=1e-12, **kw),
-                            polish=lambda z, tau: ev(z, tau), residual=residual)
-        return cont.run(np.zeros(2), tau0=1.0)[0], cont.stats
+        return np.array([[1.0, -2.0 * z[1]], [200.0 * valley, 1e-6 - 400.0 * z[1] * valley]])
 
     for kw in ({}, {"step_rcond": 1e-3}):
         with pytest.raises(ConvergenceError, match="final Newton polish"):
-            polish(**kw)
-    z, stats = polish(flat_step=0.004)
+            _final_polish(residual, jacobian, tol_final=1e-12, **kw)
+    z, stats = _final_polish(residual, jacobian, tol_final=1e-12, flat_step=0.004)
     assert z == pytest.approx([1e-4, 0.01], abs=1e-12)
     assert stats.residuals > 0
 
@@ -716,7 +725,6 @@ def test_the_flat_march_turns_where_the_valley_curves_away_from_its_root():
     import numpy as np
 
     from spaceopt.errors import ConvergenceError
-    from spaceopt.indirect.continuation import Continuation, ContinuationOptions
 
     coeffs = (1e-8, 1e-6, 1e-3, -1.0)              # g(y) = Σ c_k y^k
 
@@ -725,22 +733,17 @@ def test_the_flat_march_turns_where_the_valley_curves_away_from_its_root():
         g = sum(c * z[1] ** k for k, c in enumerate(coeffs))
         return np.array([valley, g + 100.0 * valley ** 2]), True
 
-    def ev(z, tau):
+    def jacobian(z):
         valley, y = z[0] - z[1] ** 2, z[1]
         dg = coeffs[1] + 2 * coeffs[2] * y + 3 * coeffs[3] * y ** 2
-        J = np.array([[1.0, -2.0 * y], [200.0 * valley, dg - 400.0 * y * valley]])
-        return residual(z, tau)[0], J, np.zeros(2), 0, True
+        return np.array([[1.0, -2.0 * y], [200.0 * valley, dg - 400.0 * y * valley]])
 
     def polish(max_steps):
-        cont = Continuation(ev, ContinuationOptions(verbose=False, tol_final=1e-14, flat_step=1e-3,
-                                                    flat_max_steps=max_steps),
-                            polish=lambda z, tau: ev(z, tau), residual=residual)
-        return cont.run(np.zeros(2), tau0=1.0)[0]
+        return _final_polish(residual, jacobian, tol_final=1e-14, flat_step=1e-3, flat_max_steps=max_steps)[0]
 
     y_root = [r.real for r in np.roots(coeffs[::-1]) if abs(r.imag) < 1e-12 and r.real > 0]
     assert len(y_root) == 1 and 0.002 < y_root[0] < 0.004
-    z = polish(max_steps=20)
-    assert z == pytest.approx([y_root[0] ** 2, y_root[0]], abs=1e-10)
+    assert polish(max_steps=20) == pytest.approx([y_root[0] ** 2, y_root[0]], abs=1e-10)
     with pytest.raises(ConvergenceError, match="final Newton polish"):
         polish(max_steps=3)                         # all three steps spent on Newton's side
 
@@ -754,21 +757,17 @@ def test_a_flat_march_without_a_bracket_starts_over_with_a_fresh_jacobian():
     import numpy as np
 
     from spaceopt.errors import ConvergenceError
-    from spaceopt.indirect.continuation import Continuation, ContinuationOptions
 
     def residual(z, tau):
         return np.array([(1.0 + 50.0 * z[1]) * (z[0] - z[1] ** 2), 1e-6 * (z[1] - 0.03)]), True
 
-    def ev(z, tau):
+    def jacobian(z):
         x, y = z
-        J = np.array([[1.0 + 50.0 * y, 50.0 * (x - y ** 2) - 2.0 * y * (1.0 + 50.0 * y)], [0.0, 1e-6]])
-        return residual(z, tau)[0], J, np.zeros(2), 0, True
+        return np.array([[1.0 + 50.0 * y, 50.0 * (x - y ** 2) - 2.0 * y * (1.0 + 50.0 * y)], [0.0, 1e-6]])
 
     def polish(relinearise):
-        cont = Continuation(ev, ContinuationOptions(verbose=False, tol_final=1e-14, flat_step=4e-3,
-                                                    flat_relinearise=relinearise),
-                            polish=lambda z, tau: ev(z, tau), residual=residual)
-        return cont.run(np.zeros(2), tau0=1.0)[0]
+        return _final_polish(residual, jacobian, tol_final=1e-14, flat_step=4e-3,
+                             flat_relinearise=relinearise)[0]
 
     with pytest.raises(ConvergenceError, match="final Newton polish"):
         polish(relinearise=0)
