@@ -748,32 +748,6 @@ def test_the_flat_march_turns_where_the_valley_curves_away_from_its_root():
         polish(max_steps=3)                         # all three steps spent on Newton's side
 
 
-def test_a_flat_march_without_a_bracket_starts_over_with_a_fresh_jacobian():
-    """flat_relinearise: f = ((1 + 50 y)(x − y²), 10⁻⁶ (y − 0.03)) from (0, 0). The chord steps
-    hold ∂f₁/∂x = 1 from the start; on the valley x = y² it is 1 + 50 y, so beyond y ≈ 0.02 they
-    overshoot and diverge, and the march (steps 0.004) never reaches the valley on the far side
-    of the root y = 0.03. From its last valley point with a fresh Jacobian the march brackets
-    it (E8 450 rev, config h_max 0.3: docs/perturbed-e6-e7-e8.md, "thirteenth session")."""
-    import numpy as np
-
-    from spaceopt.errors import ConvergenceError
-
-    def residual(z, tau):
-        return np.array([(1.0 + 50.0 * z[1]) * (z[0] - z[1] ** 2), 1e-6 * (z[1] - 0.03)]), True
-
-    def jacobian(z):
-        x, y = z
-        return np.array([[1.0 + 50.0 * y, 50.0 * (x - y ** 2) - 2.0 * y * (1.0 + 50.0 * y)], [0.0, 1e-6]])
-
-    def polish(relinearise):
-        return _final_polish(residual, jacobian, tol_final=1e-14, flat_step=4e-3,
-                             flat_relinearise=relinearise)[0]
-
-    with pytest.raises(ConvergenceError, match="final Newton polish"):
-        polish(relinearise=0)
-    assert polish(relinearise=1) == pytest.approx([0.03 ** 2, 0.03], abs=1e-10)
-
-
 def test_e8_figure_breaks_the_line_at_a_missing_count(tmp_path, monkeypatch):
     """Fig. 4.2.2.5: a model without a count the others have (the full model at 450) gets a gap
     there, not a segment bridging it; models keep the rows' order."""

@@ -47,9 +47,8 @@ reduction, :meth:`Continuation._flat_root`): with v, u the last right and left s
 the points x with v·(x − z) = s whose residual has no component outside u form a curve (the
 valley); on it f reduces to the scalar g(s) = u·f, found by chord steps with J held fixed, and
 s is marched in steps of ``flat_step`` until g changes sign (the other way where |g| doubles
-first; without a bracket, once more from the last valley point with a fresh Jacobian), then
-refined by regula falsi, from residual evaluations only (``residual``, no sensitivities, but
-the fresh Jacobian). Newton's step has the right length along v but goes straight where the valley curves, and lands where J is nearly singular.
+first), then refined by regula falsi, from residual evaluations only (``residual``, no sensitivities). Newton's step has the right length
+along v but goes straight where the valley curves, and lands where J is nearly singular.
 Measured at E8 450 rev, 4×4 → 4×4 + Moon + Sun at τ = 1 (10 arcs): σ_min 2.0e-5 (σ_max 3.2e3),
 g(0) = −4.7e-7, g = −3.4e-7, −5.5e-7, −1.4e-7, +1.9e-7 at s = 0.01, 0.015, 0.02, 0.03 (scaled
 unknowns), the root at s = 0.0227, where σ_min is 1.2e-4 and |F| 6e-10 after one Newton step
@@ -99,7 +98,6 @@ class ContinuationOptions:
     flat_step: float = 0.0              # a failed final polish: the flattest direction's root (module docstring); 0 = none
     flat_max_steps: int = 20            # steps of flat_step marched at most
     flat_chord: int = 30                # chord steps per valley point; secant steps at most
-    flat_relinearise: int = 1           # marches without a bracket restarted at their last valley point
     end_overshoot: float = 0.0          # arclength: landing on τ = 1 (module docstring); 0 = none
 
 
@@ -468,7 +466,7 @@ class Continuation:
             z, F, J, nF = z_new, f_new, J_new, n_new
         return z, J, F, nF
 
-    def _flat_root(self, z, J, F, tau, relinearise=None):
+    def _flat_root(self, z, J, F, tau):
         """A root of f(·, τ) along the flattest direction of J (Lyapunov–Schmidt; module
         docstring), or None. With J = U diag(σ) Vᵀ, v and u its last singular vectors: on the
         valley {x : v·(x − z) = s, U_rᵀ f(x) = 0} (U_r: every left vector but u) f reduces to the
@@ -476,13 +474,10 @@ class Continuation:
         V_r diag(σ_r)⁻¹ U_rᵀ f(x) (they leave s unchanged); s marches by ``flat_step`` from 0 in
         Newton's direction (−sign g(0)) until g changes sign (:meth:`_march_valley`), and with
         the steps left the other way where |g| doubles first; regula falsi on that bracket then
-        finds the root (the valley point of least |g|, within 1e-3 |g(0)|). A march without a
-        bracket starts over from its last valley point with a fresh Jacobian
-        (:meth:`_relinearised_root`, ``flat_relinearise`` times; ``relinearise``: the restarts
-        left, None for all).
+        finds the root (the valley point of least |g|, within 1e-3 |g(0)|).
         Where the chord through z does not reach the valley (|f_r| ≥ 1e-2 |g|), its best point
-        if it at least halved |f|₂, else None. Residual evaluations only (``residual``), but a
-        restart's Jacobian."""
+        if it at least halved |f|₂, else None. Residual evaluations only (``residual``), no
+        Jacobians."""
         opt = self.opt
         U, S, Vt = np.linalg.svd(J)
         u, v, Ur, Sr, Vr = U[:, -1], Vt[-1], U[:, :-1], S[:-1], Vt[:-1]
@@ -517,7 +512,7 @@ class Continuation:
             self._log(f"  |g| more than doubled: the root lies the other way, marching s by {-newton:+.3g}")
             pts, _ = self._march_valley(on_valley, v, origin, -newton, opt.flat_max_steps - used, tol_valley)
         if np.sign(pts[-1][2]) == np.sign(g):
-            return self._relinearised_root(pts, tau, opt.flat_relinearise if relinearise is None else relinearise)
+            return None
         # regula falsi (Illinois) on the bracket: g is not monotone on the scale of a step
         # (E8 500: g = −6.9e-8 at s = −0.025, −1.2e-7 at the plain secant's −0.0230)
         (sa, xa, ga), (sb, xb, gb) = pts[-2], pts[-1]
@@ -541,23 +536,6 @@ class Continuation:
             else:
                 (sa, xa, ga), (sb, xb, gb) = (sb, xb, gb), (s, x, g)
         return best[1]
-
-    def _relinearised_root(self, pts, tau, relinearise):
-        """:meth:`_flat_root` again from the last valley point of a march that found no bracket,
-        with a fresh Jacobian there (``relinearise`` times at most), or None. The chord steps
-        hold J fixed at the polish's point, and where the valley curves away from it they stop
-        reaching the valley (E8 450, config h_max 0.3, docs/perturbed-e6-e7-e8.md "thirteenth
-        session": on valley at s = +0.01, g +1.1e-6; off it from +0.015 on (|f_r| 1e-4 … 3e-3 ≫
-        the tolerance 1.2e-8) while g read −1.6e-6 … −2.2e-6 from +0.025: the root about 0.02
-        away, out of the frozen linearisation's reach)."""
-        if relinearise <= 0 or len(pts) < 2:
-            return None
-        x = pts[-1][1]
-        f, J, _, ok = self._eval(x, tau, final=True)
-        if not ok or not np.all(np.isfinite(f)):
-            return None
-        self._log(f"  no bracket: the flat direction again at s = {pts[-1][0]:+.4g}, with a fresh Jacobian")
-        return self._flat_root(x, J, f, tau, relinearise - 1)
 
     def _march_valley(self, on_valley, v, origin, step, budget, tol_valley):
         """March s = k·step (k = 1 … budget) along the valley from ``origin`` = (0, x, g(0)), each
