@@ -47,8 +47,9 @@ reduction, :meth:`Continuation._flat_root`): with v, u the last right and left s
 the points x with v·(x − z) = s whose residual has no component outside u form a curve (the
 valley); on it f reduces to the scalar g(s) = u·f, found by chord steps with J held fixed, and
 s is marched in steps of ``flat_step`` until g changes sign (the other way where |g| doubles
-first), then refined by regula falsi, from residual evaluations only (``residual``, no sensitivities). Newton's step has the right length
-along v but goes straight where the valley curves, and lands where J is nearly singular.
+first), then refined by regula falsi, from residual evaluations only (``residual``, no
+sensitivities). Newton's step has the right length along v but goes straight where the valley
+curves, and lands where J is nearly singular.
 Measured at E8 450 rev, 4×4 → 4×4 + Moon + Sun at τ = 1 (10 arcs): σ_min 2.0e-5 (σ_max 3.2e3),
 g(0) = −4.7e-7, g = −3.4e-7, −5.5e-7, −1.4e-7, +1.9e-7 at s = 0.01, 0.015, 0.02, 0.03 (scaled
 unknowns), the root at s = 0.0227, where σ_min is 1.2e-4 and |F| 6e-10 after one Newton step
