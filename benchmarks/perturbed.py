@@ -322,7 +322,7 @@ def e8_chain(n_rev: float, model: str, start=None) -> tuple[dict, object]:
             rec.update(route=f"chain LP -> OT ({path})", lp_stats=_jsonable(lp.stats),
                        jacobian_evaluations=_jacobians(lp.stats) + _jacobians(ot.stats))
         else:
-            ot = P.warm_start(start, tr, label, **P.warm_start_kwargs(pc, "e8", model))
+            ot = P.warm_start(start, tr, label, **P.warm_start_kwargs(pc, "e8", model, n_rev=n_rev))
             rec.update(route=f"warm start from the converged {start.transfer.perturbations or 'unperturbed'} "
                              f"OT solution (studies.perturbed.warm_start); wall time excludes that solve",
                        jacobian_evaluations=_jacobians(ot.stats))

@@ -499,6 +499,37 @@ def test_model_step_settings_reach_the_warm_start_of_that_model_only():
         P.warm_start_kwargs(pc, "e8", "g44_moon_sun")
 
 
+def test_model_step_settings_of_one_revolution_count_override_the_others():
+    """model_step.<model>.at_n_rev {count: settings}: E8's full model has the arclength h_max
+    0.1 at 450 revolutions only (an arclength, ArclengthOptions, not re-typed to the default by
+    chain.path_options), 0.3 elsewhere; a τ stage of the same warm start keeps its own step
+    sizes; a bad count or setting names its key and value."""
+    from spaceopt.indirect.chain import path_options
+    from spaceopt.indirect.continuation import ArclengthOptions, ContinuationOptions
+
+    at_450 = P.warm_start_kwargs(PC, "e8", "g44_moon_sun", n_rev=450)["options"]
+    assert isinstance(at_450, ArclengthOptions)
+    assert path_options("arclength", at_450, "x").h_max == PC["cases"]["e8"]["model_step"]["g44_moon_sun"][
+        "at_n_rev"][450]["h_max"] < ArclengthOptions().h_max
+    assert path_options("tau", at_450, "x").h_max == ContinuationOptions().h_max
+    for n in (None, 400, 500):
+        opt = P.warm_start_kwargs(PC, "e8", "g44_moon_sun", n_rev=n)["options"]
+        assert path_options("arclength", opt, "x").h_max == ArclengthOptions().h_max
+        assert opt.step_rcond == at_450.step_rcond and opt.flat_step == at_450.flat_step
+    pc = copy.deepcopy(PC)
+    step = pc["cases"]["e8"]["model_step"]["g44_moon_sun"]
+    for bad, key in (({450: {"h_max": 0.0}}, r"at_n_rev\.450\.h_max"), ({450: {"path": "tau"}}, r"at_n_rev\.450\.path"),
+                     ({-3: {"h_max": 0.1}}, r"at_n_rev\.-3"), ({450: 0.1}, r"at_n_rev\.450.*0\.1"),
+                     ([450], r"at_n_rev.*450")):
+        step["at_n_rev"] = bad
+        with pytest.raises(ConfigError, match=rf"perturbed\.cases\.e8\.model_step\.g44_moon_sun\.{key}"):
+            P.warm_start_kwargs(pc, "e8", "g44_moon_sun", n_rev=450)
+    step["at_n_rev"] = {}
+    step["h_max"] = 1.5
+    with pytest.raises(ConfigError, match=r"g44_moon_sun\.h_max.*1\.5"):
+        P.warm_start_kwargs(pc, "e8", "g44_moon_sun")
+
+
 def test_force_model_step_goes_through_the_smoothing_eps(monkeypatch):
     """warm_start J2 → 4×4 with model_step_eps: the model step is done at that ε, in arclength
     (E7's route); without it, at ε_f by the model blend (E8's, E9's)."""

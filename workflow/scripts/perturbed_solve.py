@@ -38,10 +38,12 @@ def main(sm):
         (f"/n{kw['n_rev']:g}" if "n_rev" in kw else "")
     # perturbations switched on / the force model changed at a larger smoothing ε than ε_f
     # (case options perturb_at_eps, model_step_at_eps), the continuation step rule
-    # (warm_step_growth), the path and settings of a model step (model_step); the warm start's paths save their last accepted point next to the
+    # (warm_step_growth), the path and settings of a model step (model_step, at this count);
+    # the warm start's paths save their last accepted point next to the
     # output, under the config's hash, and a rerun after an interruption resumes from it (E8
     # 450-500: hours); checkpoints of another config are dropped
-    warm_kw = P.warm_start_kwargs(cfg, case, model, checkpoint_dir=str(checkpoint_dir(out, cfg)))
+    warm_kw = P.warm_start_kwargs(cfg, case, model, checkpoint_dir=str(checkpoint_dir(out, cfg)),
+                                  n_rev=kw.get("n_rev"))
     t0 = time.perf_counter()
     artifacts.clear_failures(out)
 

@@ -41,7 +41,7 @@ from ..errors import ConfigError, ConvergenceError
 from ..indirect import chain
 from ..indirect import hamiltonians as hm
 from ..indirect.chain import Solution
-from ..indirect.continuation import ACCEPTED_UPDATES, GROWTH, ContinuationOptions
+from ..indirect.continuation import ACCEPTED_UPDATES, GROWTH, ArclengthOptions, ContinuationOptions
 from ..indirect.shooting import Shooting
 from ..indirect.transfer import MAX_STEPS, PATH_RTOL, Orbit, Transfer, step_cap
 from . import multirev
@@ -305,57 +305,86 @@ def perturb_at_eps(pc: dict, case: str, key: str = "perturb_at_eps") -> float | 
     return val
 
 
-def case_model_step(cc: dict, model: str, path: str) -> dict:
+STEP_SETTINGS = ("step_growth", "accepted_update", "step_rcond", "flat_step", "end_overshoot", "h_max")
+
+
+def case_model_step(cc: dict, model: str, path: str, n_rev: float | None = None) -> dict:
     """Case option ``model_step`` ({model: settings}): how the warm start into that model is
     followed, ``path`` ('tau', the default: τ, then its fallbacks; 'arclength': the model blend
     in arclength at once) and the continuation options ``step_growth``, ``accepted_update``,
-    ``step_rcond``, ``flat_step``, ``end_overshoot`` (:class:`ContinuationOptions`). E8 names its full model (the
-    4×4 → 4×4 + Moon + Sun step at 450-500 revolutions, docs/perturbed-e6-e7-e8.md, "ninth
-    session"). Models not named get {}."""
+    ``step_rcond``, ``flat_step``, ``end_overshoot`` and ``h_max`` (the largest step, in the
+    path's own measure; :class:`ContinuationOptions`, :class:`ArclengthOptions`).
+    ``at_n_rev: {count: settings}`` overrides those continuation options for one revolution
+    count ``n_rev`` (E8 450: the full model's arclength path with h_max 0.1, whose end point
+    has the flat-direction root 0.008 away where h_max 0.3 leaves it 0.02 away, beyond the
+    chords' reach; docs/perturbed-e6-e7-e8.md, "twelfth" and "thirteenth session"). E8 names
+    its full model (the 4×4 → 4×4 + Moon + Sun step at 450-500 revolutions, "ninth session").
+    Models not named get {}."""
+    def check(settings, where, allowed):
+        if not isinstance(settings, dict):
+            raise ConfigError(where, settings, "expected a mapping of model-step settings")
+        choices = {"path": MODEL_STEP_PATHS, "step_growth": GROWTH, "accepted_update": ACCEPTED_UPDATES}
+        for k, v in settings.items():
+            if k not in allowed:
+                raise ConfigError(f"{where}.{k}", v, f"unknown setting (expected {', '.join(allowed)})")
+            if k in choices:
+                if v not in choices[k]:
+                    raise ConfigError(f"{where}.{k}", v, f"expected one of {', '.join(choices[k])}")
+            elif k == "h_max":
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v <= 1:
+                    raise ConfigError(f"{where}.{k}", v, "expected a number in (0, 1]")
+            elif k != "at_n_rev" and (isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 <= v < 1):
+                raise ConfigError(f"{where}.{k}", v, "expected a number in [0, 1)")
+
     def read(cfg, key, where):
         val = cfg[key]
-        if not isinstance(val, dict):
-            raise ConfigError(f"{where}.{key}", val, "expected a mapping of model-step settings")
-        checks = {"path": MODEL_STEP_PATHS, "step_growth": GROWTH, "accepted_update": ACCEPTED_UPDATES}
-        for k, v in val.items():
-            if k in checks:
-                if v not in checks[k]:
-                    raise ConfigError(f"{where}.{key}.{k}", v, f"expected one of {', '.join(checks[k])}")
-            elif k in ("step_rcond", "flat_step", "end_overshoot"):
-                if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 <= v < 1:
-                    raise ConfigError(f"{where}.{key}.{k}", v, "expected a number in [0, 1)")
-            else:
-                raise ConfigError(f"{where}.{key}.{k}", v, "unknown setting (expected path, step_growth, "
-                                  "accepted_update, step_rcond, flat_step, end_overshoot)")
-        return dict(val)
+        where = f"{where}.{key}"
+        check(val, where, ("path", *STEP_SETTINGS, "at_n_rev"))
+        counts = val.get("at_n_rev", {})
+        if not isinstance(counts, dict):
+            raise ConfigError(f"{where}.at_n_rev", counts, "expected a mapping {revolution count: settings}")
+        chosen = {}
+        for count, settings in counts.items():
+            if isinstance(count, bool) or not isinstance(count, (int, float)) or count <= 0:
+                raise ConfigError(f"{where}.at_n_rev.{count}", settings, "the key must be a positive revolution count")
+            check(settings, f"{where}.at_n_rev.{count}", STEP_SETTINGS)
+            if n_rev is not None and float(count) == float(n_rev):
+                chosen = settings
+        return {**{k: v for k, v in val.items() if k != "at_n_rev"}, **chosen}
     return _per_model(cc, "model_step", model, path, {}, read)
 
 
-def warm_start_kwargs(pc: dict, case: str, model: str, checkpoint_dir: str = "") -> dict:
-    """The keyword arguments of :func:`warm_start` into ``model`` from the case options:
-    ``eps_smooth`` and ``model_step_eps`` (``perturb_at_eps``, ``model_step_at_eps``, each
-    checked by :func:`perturb_at_eps`), ``options`` (:func:`warm_start_options`) and
-    ``model_path`` (:func:`case_model_step`)."""
+def warm_start_kwargs(pc: dict, case: str, model: str, checkpoint_dir: str = "",
+                      n_rev: float | None = None) -> dict:
+    """The keyword arguments of :func:`warm_start` into ``model`` (at revolution count ``n_rev``,
+    E8) from the case options: ``eps_smooth`` and ``model_step_eps`` (``perturb_at_eps``,
+    ``model_step_at_eps``, each checked by :func:`perturb_at_eps`), ``options``
+    (:func:`warm_start_options`) and ``model_path`` (:func:`case_model_step`)."""
     step = case_model_step(pc["cases"][case], model, f"perturbed.cases.{case}")
     return {"eps_smooth": perturb_at_eps(pc, case), "model_step_eps": perturb_at_eps(pc, case, "model_step_at_eps"),
-            "options": warm_start_options(pc, case, checkpoint_dir, model), "model_path": step.get("path", "tau")}
+            "options": warm_start_options(pc, case, checkpoint_dir, model, n_rev), "model_path": step.get("path", "tau")}
 
 
-def warm_start_options(pc: dict, case: str, checkpoint_dir: str = "", model: str | None = None) -> ContinuationOptions | None:
+def warm_start_options(pc: dict, case: str, checkpoint_dir: str = "", model: str | None = None,
+                       n_rev: float | None = None) -> ContinuationOptions | None:
     """Continuation options of the case's warm starts (:func:`warm_start`): case option
     ``warm_step_growth`` ('iterations' | 'residual', :mod:`spaceopt.indirect.continuation`),
-    the continuation settings ``model_step`` names for ``model`` (:func:`case_model_step`; they
-    take precedence) and ``checkpoint_dir`` (paths resumable after an interruption,
-    ``ContinuationOptions``); None (the followers' defaults) where none is given."""
+    the continuation settings ``model_step`` names for ``model`` at ``n_rev``
+    (:func:`case_model_step`; they take precedence) and ``checkpoint_dir`` (paths resumable
+    after an interruption, ``ContinuationOptions``); None (the followers' defaults) where none
+    is given. Options of an arclength model step are :class:`ArclengthOptions`, so that its
+    ``h_max`` is an arclength (the τ stages of the same warm start keep their own step sizes,
+    ``chain.path_options``)."""
     cc = pc["cases"][case]
     growth = cc.get("warm_step_growth")
     if growth is not None and growth not in GROWTH:
         raise ConfigError(f"perturbed.cases.{case}.warm_step_growth", growth, f"expected one of {', '.join(GROWTH)}")
-    step = case_model_step(cc, model, f"perturbed.cases.{case}") if model is not None else {}
+    step = case_model_step(cc, model, f"perturbed.cases.{case}", n_rev) if model is not None else {}
     settings = {**({"step_growth": growth} if growth else {}), **{k: v for k, v in step.items() if k != "path"}}
     if not settings and not checkpoint_dir:
         return None
-    return ContinuationOptions(**settings, checkpoint_dir=checkpoint_dir)
+    kind = ArclengthOptions if step.get("path") == "arclength" else ContinuationOptions
+    return kind(**settings, checkpoint_dir=checkpoint_dir)
 
 
 def perturbation_switch(tr: Transfer) -> Shooting:
