@@ -747,6 +747,31 @@ def test_a_failed_polish_finds_the_root_along_the_flattest_direction():
     assert stats.residuals > 0
 
 
+def test_the_flat_march_accepts_a_valley_point_whose_residual_is_at_a_stiff_rows_noise_floor():
+    """flat_step, a noisy stiff row: f = (10⁴ (x − y²) + 5·10⁻¹⁰ n(z), 10⁻⁶ (y − 0.01) + 100 (x − y²)²)
+    with n(z) in [−1, 1] a deterministic hash of z, the integration noise of a shooting
+    residual. |f_r| stays near 5·10⁻¹⁰, above 10⁻² |g(0)| = 10⁻¹⁰, but the chord step it asks for
+    is 5·10⁻¹⁴: the point is on the valley, and the root is found (E8 450, single shooting:
+    docs/perturbed-e6-e7-e8.md, "fourteenth session"). Without the noise the residual test
+    alone suffices."""
+    import zlib
+
+    import numpy as np
+
+    def residual(z, tau, noise=5e-10):
+        n = zlib.crc32(np.asarray(z, float).tobytes()) / 2.0 ** 31 - 1.0
+        valley = z[0] - z[1] ** 2
+        return np.array([1e4 * valley + noise * n, 1e-6 * (z[1] - 0.01) + 100.0 * valley ** 2]), True
+
+    def jacobian(z):
+        valley = z[0] - z[1] ** 2
+        return np.array([[1e4, -2e4 * z[1]], [200.0 * valley, 1e-6 - 400.0 * z[1] * valley]])
+
+    for noise in (5e-10, 0.0):
+        z, stats = _final_polish(lambda z, tau: residual(z, tau, noise), jacobian, tol_final=1e-12, flat_step=0.004)
+        assert z == pytest.approx([1e-4, 0.01], abs=1e-9) and stats.residuals > 0
+
+
 def test_the_flat_march_turns_where_the_valley_curves_away_from_its_root():
     """flat_step, both sides: on the valley x = y² of f = (x − y², g(y) + 100 (x − y²)²) with
     g(y) = 10⁻⁸ + 10⁻⁶ y + 10⁻³ y² − y³, the slope σ_min = 10⁻⁶ sends Newton's direction to y < 0,

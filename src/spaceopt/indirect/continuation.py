@@ -476,42 +476,57 @@ class Continuation:
         Newton's direction (−sign g(0)) until g changes sign (:meth:`_march_valley`), and with
         the steps left the other way where |g| doubles first; regula falsi on that bracket then
         finds the root (the valley point of least |g|, within 1e-3 |g(0)|).
-        Where the chord through z does not reach the valley (|f_r| ≥ 1e-2 |g|), its best point
-        if it at least halved |f|₂, else None. Residual evaluations only (``residual``), no
-        Jacobians."""
+        A chord point is on the valley where |f_r| < 1e-2 |g(0)| (|g| at s = 0), or where the
+        next chord step ‖diag(σ_r)⁻¹ U_rᵀ f‖ is below 1e-3 ``flat_step``: the distance to the
+        valley measured in the unknowns, as an affine-covariant Newton method measures
+        convergence by its corrections (Deuflhard, Newton Methods for Nonlinear Problems, §2.1),
+        for rows whose residual has an integration-noise floor that their large σ turns into a
+        negligible step (E8 450, single shooting at τ = 1: |f_r| 1.2e-8 at its floor, mostly on
+        the σ_max = 7e4 row of p_t, a step of 3e-13, against 1e-2 |g| = 8.3e-9;
+        docs/perturbed-e6-e7-e8.md, "fourteenth session").
+        Where the chord through z does not reach the valley, its best point if it at least halved
+        |f|₂, else None. Residual evaluations only (``residual``), no Jacobians."""
         opt = self.opt
         U, S, Vt = np.linalg.svd(J)
         u, v, Ur, Sr, Vr = U[:, -1], Vt[-1], U[:, :-1], S[:-1], Vt[:-1]
 
-        def on_valley(x):
-            best, stall = (x, np.inf, np.nan), 0
+        def valley(x, g_ref=None):
+            """The chord's best point from x, (x, |f_r|, g, the length of its next chord step),
+            and whether it lies on the valley (g_ref: g(0); None: the point's own g)."""
+            best, stall = (x, np.inf, np.nan, np.inf), 0
             for _ in range(opt.flat_chord):
                 f, ok = self._residual(x, tau)
                 if not ok or not np.all(np.isfinite(f)):
                     break
                 c = Ur.T @ f
-                reg = float(np.linalg.norm(c))
-                best, stall = ((x, reg, float(u @ f)), 0) if reg < best[1] else (best, stall + 1)
+                reg, step = float(np.linalg.norm(c)), c / Sr
+                point = (x, reg, float(u @ f), float(np.linalg.norm(step)))
+                best, stall = (point, 0) if reg < best[1] else (best, stall + 1)
                 if reg < opt.tol_final or stall >= 4:
                     break
-                x = x - Vr.T @ (c / Sr)
-            return best
+                x = x - Vr.T @ step
+            _, reg, g, dist = best
+            return best, reg < 1e-2 * abs(g if g_ref is None else g_ref) or dist < 1e-3 * opt.flat_step
 
-        x, reg, g = on_valley(z)
-        if not reg < 1e-2 * abs(g):
+        (x, reg, g, dist), on = valley(z)
+        if not on:
             # the valley not reached: the chord's point where it at least halved |F|₂ (the polish
             # then decides; E8 500, single shooting: |f_r| 5.6e-9 at its noise floor, g −8.7e-8)
             gain = np.hypot(reg, g) < 0.5 * np.linalg.norm(F)
             self._log(f"  flat direction (sigma {S[-1]:.2e}): the valley through the point not reached "
-                      f"(|f_r| {reg:.2e}, g {g:.2e}){'; its chord point kept' if gain else ''}")
+                      f"(|f_r| {reg:.2e}, chord step {dist:.1e}, g {g:.2e}){'; its chord point kept' if gain else ''}")
             return x if gain else None
-        origin, tol_valley = (0.0, x, g), 1e-2 * abs(g)
+        origin, g0 = (0.0, x, g), g
+
+        def from_origin(x):
+            return valley(x, g0)
+
         newton = -np.sign(g) * opt.flat_step
         self._log(f"  flat direction (sigma {S[-1]:.2e} of {S[0]:.2e}): g(0) = {g:+.3e}, marching s by {newton:+.3g}")
-        pts, used = self._march_valley(on_valley, v, origin, newton, opt.flat_max_steps, tol_valley)
+        pts, used = self._march_valley(from_origin, v, origin, newton, opt.flat_max_steps)
         if np.sign(pts[-1][2]) == np.sign(g) and used < opt.flat_max_steps:
             self._log(f"  |g| more than doubled: the root lies the other way, marching s by {-newton:+.3g}")
-            pts, _ = self._march_valley(on_valley, v, origin, -newton, opt.flat_max_steps - used, tol_valley)
+            pts, _ = self._march_valley(from_origin, v, origin, -newton, opt.flat_max_steps - used)
         if np.sign(pts[-1][2]) == np.sign(g):
             return None
         # regula falsi (Illinois) on the bracket: g is not monotone on the scale of a step
@@ -523,11 +538,11 @@ class Continuation:
             if abs(best[2]) <= tol_g:
                 break
             s = sb - gb * (sb - sa) / (gb - ga)
-            x, reg, g = on_valley(xa + (s - sa) / (sb - sa) * (xb - xa))
-            if not reg < tol_valley:
+            (x, reg, g, _), on = from_origin(xa + (s - sa) / (sb - sa) * (xb - xa))
+            if not on:
                 s = 0.5 * (sa + sb)
-                x, reg, g = on_valley(0.5 * (xa + xb))
-                if not reg < tol_valley:
+                (x, reg, g, _), on = from_origin(0.5 * (xa + xb))
+                if not on:
                     break
             self._log(f"  regula falsi s = {s:+.6g}: g = {g:+.3e} (|f_r| {reg:.1e})")
             if abs(g) < abs(best[2]):
@@ -538,11 +553,11 @@ class Continuation:
                 (sa, xa, ga), (sb, xb, gb) = (sb, xb, gb), (s, x, g)
         return best[1]
 
-    def _march_valley(self, on_valley, v, origin, step, budget, tol_valley):
+    def _march_valley(self, valley, v, origin, step, budget):
         """March s = k·step (k = 1 … budget) along the valley from ``origin`` = (0, x, g(0)), each
         start extrapolated from the last two points, a point whose chord steps do not reach the
-        valley (|f_r| ≥ ``tol_valley``) skipped: (points, steps used). It stops at a sign change
-        of g (the last two points bracket the root) or where |g| exceeds 2 |g(0)| with g(0)'s
+        valley skipped (``valley(x)`` → ((x, |f_r|, g, chord step), on the valley)): (points,
+        steps used). It stops at a sign change of g (the last two points bracket the root) or where |g| exceeds 2 |g(0)| with g(0)'s
         sign: the valley's curvature outweighs its slope σ_min, and the root lies the other way
         (E8 450, 4×4 → full with h_max 0.1, docs/perturbed-e6-e7-e8.md "twelfth session":
         g(0) +2.4e-7, +6e-7 one step along Newton's direction and growing to +1.8e-6 at
@@ -552,9 +567,9 @@ class Continuation:
             s = k * step
             (s1, x1, _), prev = pts[-1], pts[-2] if len(pts) > 1 else None
             start = x1 + (s - s1) * (v if prev is None else (x1 - prev[1]) / (s1 - prev[0]))
-            x, reg, g = on_valley(start)
-            self._log(f"  s = {s:+.4g}: g = {g:+.3e} (|f_r| {reg:.1e})")
-            if not reg < tol_valley:
+            (x, reg, g, dist), on = valley(start)
+            self._log(f"  s = {s:+.4g}: g = {g:+.3e} (|f_r| {reg:.1e}, chord step {dist:.1e})")
+            if not on:
                 continue
             pts.append((s, x, g))
             if np.sign(g) != np.sign(g0) or abs(g) > 2.0 * abs(g0):
