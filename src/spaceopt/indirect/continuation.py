@@ -557,8 +557,9 @@ class Continuation:
         """March s = k·step (k = 1 … budget) along the valley from ``origin`` = (0, x, g(0)), each
         start extrapolated from the last two points, a point whose chord steps do not reach the
         valley skipped (``valley(x)`` → ((x, |f_r|, g, chord step), on the valley)): (points,
-        steps used). It stops at a sign change of g (the last two points bracket the root) or where |g| exceeds 2 |g(0)| with g(0)'s
-        sign: the valley's curvature outweighs its slope σ_min, and the root lies the other way
+        steps used). It stops at a sign change of g (the last two points bracket the root) or
+        where |g| exceeds 2 |g(0)| with g(0)'s sign: the valley's curvature outweighs its slope
+        σ_min, and the root lies the other way
         (E8 450, 4×4 → full with h_max 0.1, docs/perturbed-e6-e7-e8.md "twelfth session":
         g(0) +2.4e-7, +6e-7 one step along Newton's direction and growing to +1.8e-6 at
         s = −0.1; against it +2.85e-7, then −1.15e-7 at s = +0.01, the root at +0.0077)."""
