@@ -804,6 +804,34 @@ def test_the_flat_march_turns_where_the_valley_curves_away_from_its_root():
         polish(max_steps=3)                         # all three steps spent on Newton's side
 
 
+def test_the_flat_march_halves_its_step_where_the_extrapolated_start_misses_the_valley():
+    """flat_step, a narrow valley: f = (sinh(a d)/a, 10⁻⁶ (y − 0.03) + 100 d²), d = x − y²,
+    a = 10⁵. A chord step at fixed J (cosh 0 = 1) contracts only where |a d| ≲ 2: each start,
+    extrapolated linearly from the last two valley points, is off by 2 h² here (h² from the
+    first), so with h = 0.004 the first point is reached (a h² = 1.6) and the second is not
+    (3.2; the chords diverge). Halving the step from the last valley point reaches it again
+    (0.75 a h², then 0.5 a h² per step), and the march brackets the root (9·10⁻⁴, 0.03)
+    (E8 450, single shooting: flat_step 0.005 reaches the valley at s = −0.005, not at −0.01;
+    docs/perturbed-e6-e7-e8.md, "fifteenth session")."""
+    import numpy as np
+
+    a, y_root = 1e5, 0.03
+
+    def residual(z, tau):
+        d = z[0] - z[1] ** 2
+        with np.errstate(over="ignore", invalid="ignore"):
+            return np.array([np.sinh(a * d) / a, 1e-6 * (z[1] - y_root) + 100.0 * d ** 2]), True
+
+    def jacobian(z):
+        d, y = z[0] - z[1] ** 2, z[1]
+        with np.errstate(over="ignore"):
+            ch = np.cosh(a * d)
+        return np.array([[ch, -2.0 * y * ch], [200.0 * d, 1e-6 - 400.0 * y * d]])
+
+    z, stats = _final_polish(residual, jacobian, tol_final=1e-14, flat_step=0.004)
+    assert z == pytest.approx([y_root ** 2, y_root], abs=1e-12) and stats.residuals > 0
+
+
 def test_e8_figure_breaks_the_line_at_a_missing_count(tmp_path, monkeypatch):
     """Fig. 4.2.2.5: a model without a count the others have (the full model at 450) gets a gap
     there, not a segment bridging it; models keep the rows' order."""

@@ -97,7 +97,7 @@ class ContinuationOptions:
     checkpoint_dir: str = ""            # resumable paths (module docstring); "" = none
     step_rcond: float = 0.0             # truncated-SVD corrector steps (module docstring); 0 = Newton
     flat_step: float = 0.0              # a failed final polish: the flattest direction's root (module docstring); 0 = none
-    flat_max_steps: int = 20            # steps of flat_step marched at most
+    flat_max_steps: int = 20            # valley points the march tries at most
     flat_chord: int = 30                # chord steps per valley point; secant steps at most
     end_overshoot: float = 0.0          # arclength: landing on τ = 1 (module docstring); 0 = none
 
@@ -554,27 +554,34 @@ class Continuation:
         return best[1]
 
     def _march_valley(self, valley, v, origin, step, budget):
-        """March s = k·step (k = 1 … budget) along the valley from ``origin`` = (0, x, g(0)), each
-        start extrapolated from the last two points, a point whose chord steps do not reach the
-        valley skipped (``valley(x)`` → ((x, |f_r|, g, chord step), on the valley)): (points,
-        steps used). It stops at a sign change of g (the last two points bracket the root) or
-        where |g| exceeds 2 |g(0)| with g(0)'s sign: the valley's curvature outweighs its slope
-        σ_min, and the root lies the other way
+        """March s along the valley from ``origin`` = (0, x, g(0)) by ``step``, each start
+        extrapolated from the last two points (``valley(x)`` → ((x, |f_r|, g, chord step), on the
+        valley)): (points, valley points tried, at most ``budget``). Where a start's chords miss
+        the valley, the step halves from the last valley point (the extrapolation's error falls
+        as the step squared; to step/8, then the march ends). It stops at a sign change of g (the
+        last two points bracket the root) or where |g| exceeds 2 |g(0)| with g(0)'s sign: the
+        valley's curvature outweighs its slope σ_min, and the root lies the other way
         (E8 450, 4×4 → full with h_max 0.1, docs/perturbed-e6-e7-e8.md "twelfth session":
         g(0) +2.4e-7, +6e-7 one step along Newton's direction and growing to +1.8e-6 at
-        s = −0.1; against it +2.85e-7, then −1.15e-7 at s = +0.01, the root at +0.0077)."""
-        pts, g0 = [origin], origin[2]
-        for k in range(1, budget + 1):
-            s = k * step
+        s = −0.1; against it +2.85e-7, then −1.15e-7 at s = +0.01, the root at +0.0077.
+        "Fourteenth session", single shooting: flat_step 0.005 reaches the valley at s = −0.005,
+        not at −0.01; flat_step 0.0025 does, and brackets the root in [−0.01, −0.0075])."""
+        pts, g0, h = [origin], origin[2], step
+        for tried in range(1, budget + 1):
             (s1, x1, _), prev = pts[-1], pts[-2] if len(pts) > 1 else None
-            start = x1 + (s - s1) * (v if prev is None else (x1 - prev[1]) / (s1 - prev[0]))
+            s = s1 + h
+            start = x1 + h * (v if prev is None else (x1 - prev[1]) / (s1 - prev[0]))
             (x, reg, g, dist), on = valley(start)
-            self._log(f"  s = {s:+.4g}: g = {g:+.3e} (|f_r| {reg:.1e}, chord step {dist:.1e})")
+            self._log(f"  s = {s:+.4g}: g = {g:+.3e} (|f_r| {reg:.1e}, chord step {dist:.1e})"
+                      f"{'' if on else '; off the valley'}")
             if not on:
+                if abs(h) <= abs(step) / 8:
+                    return pts, tried
+                h *= 0.5
                 continue
             pts.append((s, x, g))
             if np.sign(g) != np.sign(g0) or abs(g) > 2.0 * abs(g0):
-                return pts, k
+                return pts, tried
         return pts, budget
 
 
