@@ -99,6 +99,7 @@ class ContinuationOptions:
     flat_step: float = 0.0              # a failed final polish: the flattest direction's root (module docstring); 0 = none
     flat_max_steps: int = 20            # valley points the march tries at most
     flat_chord: int = 30                # chord steps per valley point; secant steps at most
+    flat_restarts: int = 3              # rounds of flat root + Newton in the final polish (_polish)
     end_overshoot: float = 0.0          # arclength: landing on τ = 1 (module docstring); 0 = none
 
 
@@ -424,15 +425,29 @@ class Continuation:
         ``solve(J, r, rcond)``: the step's linear solve. With ``step_rcond``: truncated-SVD steps
         first, while each at least halves |F|, then Newton steps (a truncated step that does not
         reduce |F| is dropped). With ``flat_step``: where that fails, the root along the flattest
-        direction (:meth:`_flat_root`), then Newton again."""
+        direction (:meth:`_flat_root`), then Newton again; and again from where that stops, with
+        the Jacobian there, while each round at least halves |F| (``flat_restarts`` rounds at
+        most: the march's chords hold J fixed, and far from where it was taken they stop
+        contracting before regula falsi has closed its bracket; E8 450, single shooting:
+        docs/perturbed-e6-e7-e8.md, "fifteenth session")."""
         opt = self.opt
         z, J, F, nF = self._newton_polish(z, J, F, tau, solve, opt.step_rcond)
-        if nF > opt.tol_final * 1e3 and opt.flat_step > 0:
+        for _ in range(opt.flat_restarts if opt.flat_step > 0 else 0):
+            if nF <= opt.tol_final * 1e3:
+                break
             root = self._flat_root(z, J, F, tau)
-            if root is not None:
-                f, J_root, _, ok = self._eval(root, tau, final=True)
-                if ok and np.all(np.isfinite(f)):
-                    z, J, F, nF = self._newton_polish(root, J_root, f, tau, solve, 0.0, at_root=True)
+            if root is None:
+                break
+            f, J_root, _, ok = self._eval(root, tau, final=True)
+            if not ok or not np.all(np.isfinite(f)):
+                break
+            z_r, J_r, F_r, n_r = self._newton_polish(root, J_root, f, tau, solve, 0.0, at_root=True)
+            if n_r >= nF:
+                break
+            gained = n_r < 0.5 * nF
+            z, J, F, nF = z_r, J_r, F_r, n_r
+            if not gained:
+                break
         self.stats.residual = nF
         self.stats.wall_time_s = self._elapsed()
         if nF > opt.tol_final * 1e3:
@@ -472,8 +487,9 @@ class Continuation:
         docstring), or None. With J = U diag(σ) Vᵀ, v and u its last singular vectors: on the
         valley {x : v·(x − z) = s, U_rᵀ f(x) = 0} (U_r: every left vector but u) f reduces to the
         scalar g(s) = u·f. Each valley point by chord steps with J held fixed, x ← x −
-        V_r diag(σ_r)⁻¹ U_rᵀ f(x) (they leave s unchanged); s marches by ``flat_step`` from 0 in
-        Newton's direction (−sign g(0)) until g changes sign (:meth:`_march_valley`), and with
+        V_r diag(σ_r)⁻¹ U_rᵀ f(x) (they leave s unchanged); s marches from 0 in Newton's
+        direction (−sign g(0)), by ``flat_step`` or by Newton's distance |g(0)|/σ_min where that
+        is shorter, until g changes sign (:meth:`_march_valley`), and with
         the steps left the other way where |g| doubles first; regula falsi on that bracket then
         finds the root (the valley point of least |g|, within 1e-3 |g(0)|).
         A chord point is on the valley where |f_r| < 1e-2 |g(0)| (|g| at s = 0), or where the
@@ -521,7 +537,7 @@ class Continuation:
         def from_origin(x):
             return valley(x, g0)
 
-        newton = -np.sign(g) * opt.flat_step
+        newton = -np.sign(g) * min(opt.flat_step, abs(g) / S[-1])
         self._log(f"  flat direction (sigma {S[-1]:.2e} of {S[0]:.2e}): g(0) = {g:+.3e}, marching s by {newton:+.3g}")
         pts, used = self._march_valley(from_origin, v, origin, newton, opt.flat_max_steps)
         if np.sign(pts[-1][2]) == np.sign(g) and used < opt.flat_max_steps:
