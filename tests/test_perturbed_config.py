@@ -832,6 +832,41 @@ def test_the_flat_march_halves_its_step_where_the_extrapolated_start_misses_the_
     assert z == pytest.approx([y_root ** 2, y_root], abs=1e-12) and stats.residuals > 0
 
 
+def test_the_flat_root_restarts_from_where_its_last_round_stopped():
+    """flat_step, a steep valley: f = (x − y², G(y) + 100 (x − y²)²), d = x − y², with
+    G(y) = 10⁻⁶ (e^{300 (y − 0.05)} − 1)/300: g(0) = −3.3·10⁻⁹, nearly flat to y ≈ 0.04, then
+    steep. With three regula-falsi steps (flat_chord 3) the first round stops at g = 6·10⁻¹¹,
+    0.00006 from the root, where Newton still fails (its step leaves the valley). A second
+    round from there, with the Jacobian there (σ_min 10⁻⁶) and steps of Newton's distance
+    |g|/σ_min, brackets the root at once (E8 450, single shooting: the first round's chords,
+    J frozen, stopped short of its bracket's root; docs/perturbed-e6-e7-e8.md,
+    "fifteenth session")."""
+    import numpy as np
+
+    from spaceopt.errors import ConvergenceError
+
+    b, y_root = 300.0, 0.05
+
+    def residual(z, tau):
+        d = z[0] - z[1] ** 2
+        with np.errstate(over="ignore", invalid="ignore"):     # Newton's diverging steps
+            return np.array([d, 1e-6 / b * np.expm1(b * (z[1] - y_root)) + 100.0 * d ** 2]), True
+
+    def jacobian(z):
+        d, y = z[0] - z[1] ** 2, z[1]
+        with np.errstate(over="ignore", invalid="ignore"):
+            return np.array([[1.0, -2.0 * y], [200.0 * d, 1e-6 * np.exp(b * (y - y_root)) - 400.0 * y * d]])
+
+    def polish(rounds):
+        return _final_polish(residual, jacobian, tol_final=1e-14, flat_step=0.004, flat_chord=3,
+                             flat_restarts=rounds)
+
+    with pytest.raises(ConvergenceError, match="final Newton polish"):
+        polish(rounds=1)
+    z, stats = polish(rounds=3)
+    assert z == pytest.approx([y_root ** 2, y_root], abs=1e-7) and stats.jacobians == 6
+
+
 def test_e8_figure_breaks_the_line_at_a_missing_count(tmp_path, monkeypatch):
     """Fig. 4.2.2.5: a model without a count the others have (the full model at 450) gets a gap
     there, not a segment bridging it; models keep the rows' order."""
