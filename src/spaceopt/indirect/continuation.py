@@ -432,10 +432,10 @@ class Continuation:
         docs/perturbed-e6-e7-e8.md, "fifteenth session")."""
         opt = self.opt
         z, J, F, nF = self._newton_polish(z, J, F, tau, solve, opt.step_rcond)
-        for _ in range(opt.flat_restarts if opt.flat_step > 0 else 0):
+        for round_ in range(opt.flat_restarts if opt.flat_step > 0 else 0):
             if nF <= opt.tol_final * 1e3:
                 break
-            root = self._flat_root(z, J, F, tau)
+            root = self._flat_root(z, J, F, tau, later_round=round_ > 0)
             if root is None:
                 break
             f, J_root, _, ok = self._eval(root, tau, final=True)
@@ -482,14 +482,15 @@ class Continuation:
             z, F, J, nF = z_new, f_new, J_new, n_new
         return z, J, F, nF
 
-    def _flat_root(self, z, J, F, tau):
+    def _flat_root(self, z, J, F, tau, later_round=False):
         """A root of f(·, τ) along the flattest direction of J (Lyapunov–Schmidt; module
         docstring), or None. With J = U diag(σ) Vᵀ, v and u its last singular vectors: on the
         valley {x : v·(x − z) = s, U_rᵀ f(x) = 0} (U_r: every left vector but u) f reduces to the
         scalar g(s) = u·f. Each valley point by chord steps with J held fixed, x ← x −
         V_r diag(σ_r)⁻¹ U_rᵀ f(x) (they leave s unchanged); s marches from 0 in Newton's
-        direction (−sign g(0)), by ``flat_step`` or by Newton's distance |g(0)|/σ_min where that
-        is shorter, until g changes sign (:meth:`_march_valley`), and with
+        direction (−sign g(0)), by ``flat_step`` (in a ``later_round`` of :meth:`_polish`, which
+        starts near a root, by Newton's distance |g(0)|/σ_min where that is shorter), until g
+        changes sign (:meth:`_march_valley`), and with
         the steps left the other way where |g| doubles first; regula falsi on that bracket then
         finds the root (the valley point of least |g|, within 1e-3 |g(0)|).
         A chord point is on the valley where |f_r| < 1e-2 |g(0)| (|g| at s = 0), or where the
@@ -537,7 +538,7 @@ class Continuation:
         def from_origin(x):
             return valley(x, g0)
 
-        newton = -np.sign(g) * min(opt.flat_step, abs(g) / S[-1])
+        newton = -np.sign(g) * (min(opt.flat_step, abs(g) / S[-1]) if later_round else opt.flat_step)
         self._log(f"  flat direction (sigma {S[-1]:.2e} of {S[0]:.2e}): g(0) = {g:+.3e}, marching s by {newton:+.3g}")
         pts, used = self._march_valley(from_origin, v, origin, newton, opt.flat_max_steps)
         if np.sign(pts[-1][2]) == np.sign(g) and used < opt.flat_max_steps:
