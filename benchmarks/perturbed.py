@@ -253,7 +253,8 @@ def _kernel_count(compiled) -> int:
 def compiled_field_loop(model, prm: dict, ndir: int, tau: float = 1.0):
     """The integrator's right-hand side of ``model`` (field + ``ndir`` sensitivity columns,
     ``jax.linearize`` as in ``flow.propagate_with_sensitivities``) at homotopy parameter ``tau``,
-    compiled in a loop of PROFILE_EVALS evaluations at a fixed state; returns (compiled, args)."""
+    compiled in a loop of PROFILE_EVALS evaluations at a fixed state, with the compile options of
+    the library's integrating functions (``flow.integrator_jit``); returns (compiled, args)."""
     import jax
     import jax.numpy as jnp
     from spaceopt.indirect import flow
@@ -268,7 +269,7 @@ def compiled_field_loop(model, prm: dict, ndir: int, tau: float = 1.0):
             dPhi = jax.vmap(lin, in_axes=(1, 0), out_axes=1)(Phi, tt)
             return y + 1e-9 * gy, Phi + 1e-9 * dPhi
         return jax.lax.fori_loop(0, PROFILE_EVALS, body, (y, Phi))
-    return jax.jit(loop).lower(y0, Phi, prm).compile(), (y0, Phi, prm)
+    return flow.integrator_jit()(loop).lower(y0, Phi, prm).compile(), (y0, Phi, prm)
 
 
 def field_profile(rounds: int) -> dict:
