@@ -51,6 +51,13 @@ def test_dirty_flag_is_a_bool_and_commit_known_in_a_git_checkout():
         assert len(cv["commit"]) == 40
 
 
+def test_the_code_version_is_the_tree_the_process_loaded_not_a_later_commit(monkeypatch):
+    from spaceopt import artifacts
+    loaded = code_version()
+    monkeypatch.setattr(artifacts, "_git", lambda *args: "f" * 40 if args[0] == "rev-parse" else "")
+    assert code_version() == loaded
+
+
 def test_same_data_gives_identical_bytes_except_wall_time(tmp_path):
     a, b, c = tmp_path / "a.json", tmp_path / "b.json", tmp_path / "c.json"
     write_json(a, _payload(2.0))

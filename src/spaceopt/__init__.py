@@ -13,5 +13,7 @@ jax.config.update("jax_compilation_cache_dir",
                   os.environ.get("SPACEOPT_JAX_CACHE", os.path.expanduser("~/.cache/spaceopt/jax")))
 jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
+from . import artifacts  # noqa: E402,F401  (fixes the code version of every artifact at import)
+
 __all__ = ["__version__"]
 __version__ = "0.1.0"

@@ -41,11 +41,21 @@ def _git(*args: str) -> str:
         return ""
 
 
-def code_version() -> dict:
-    """Git commit of the source tree and whether tracked files differ from it."""
+def _read_code_version() -> dict:
     commit = _git("rev-parse", "HEAD") or "unknown"
     dirty = bool(_git("status", "--porcelain", "--untracked-files=no", "--", "src"))
     return {"commit": commit, "dirty": dirty}
+
+
+# Read once, when the package is imported (spaceopt/__init__ imports this module), not when an
+# artifact is written: a solve that runs for hours while commits land records the code it loaded
+# (E8 450, sixteenth session: a 107-minute job had saved the commit made 80 minutes after it began).
+_LOADED_CODE = _read_code_version()
+
+
+def code_version() -> dict:
+    """Git commit of the source tree this process loaded, and whether src/ differed from it then."""
+    return dict(_LOADED_CODE)
 
 
 def package_versions() -> dict:
