@@ -46,6 +46,7 @@ ROOT = Path(__file__).resolve().parents[1]
 MODELS = ("unperturbed", "g44_moon_sun")
 PUBLISHED = ROOT / "config/published/yun2023_perturbed.yaml"
 TARGET_S = 600.0
+CALLER_XLA_FLAGS = os.environ.get("XLA_FLAGS")     # read before spaceopt is imported (it adds a flag)
 
 
 def measured(results: Path) -> dict:
@@ -150,7 +151,11 @@ def _worker(revs: float) -> None:
 
 class _Worker:
     def __init__(self, src: Path, revs: float):
+        # the caller's XLA_FLAGS, not those spaceopt set in this process: each tree sets its own
         env = {**os.environ, "PYTHONPATH": str(src)}
+        env.pop("XLA_FLAGS", None)
+        if CALLER_XLA_FLAGS is not None:
+            env["XLA_FLAGS"] = CALLER_XLA_FLAGS
         self.p = subprocess.Popen([sys.executable, __file__, "--worker", "--revs", str(revs)],
                                   stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env)
         self.first = {}
@@ -253,8 +258,7 @@ def _kernel_count(compiled) -> int:
 def compiled_field_loop(model, prm: dict, ndir: int, tau: float = 1.0):
     """The integrator's right-hand side of ``model`` (field + ``ndir`` sensitivity columns,
     ``jax.linearize`` as in ``flow.propagate_with_sensitivities``) at homotopy parameter ``tau``,
-    compiled in a loop of PROFILE_EVALS evaluations at a fixed state, with the compile options of
-    the library's integrating functions (``flow.integrator_jit``); returns (compiled, args)."""
+    compiled in a loop of PROFILE_EVALS evaluations at a fixed state; returns (compiled, args)."""
     import jax
     import jax.numpy as jnp
     from spaceopt.indirect import flow
@@ -269,7 +273,7 @@ def compiled_field_loop(model, prm: dict, ndir: int, tau: float = 1.0):
             dPhi = jax.vmap(lin, in_axes=(1, 0), out_axes=1)(Phi, tt)
             return y + 1e-9 * gy, Phi + 1e-9 * dPhi
         return jax.lax.fori_loop(0, PROFILE_EVALS, body, (y, Phi))
-    return flow.integrator_jit()(loop).lower(y0, Phi, prm).compile(), (y0, Phi, prm)
+    return jax.jit(loop).lower(y0, Phi, prm).compile(), (y0, Phi, prm)
 
 
 def field_profile(rounds: int) -> dict:

@@ -1,10 +1,25 @@
 """spaceopt: indirect optimisation of perturbed low-thrust transfers and discrete control studies.
 
 float64 is switched on here, once, for the whole package (design.md, "Conventions").
+
+XLA's newer CPU fusion emitters are switched off for the process (``XLA_CPU_FLAG``, added to
+``XLA_FLAGS`` unless the caller set that flag; XLA reads it when its backend starts, at the first
+computation). Measured side by side (``benchmarks/perturbed.py --baseline``, paired medians of 20
+rounds): a perturbed shooting evaluation (4×4 + Moon + Sun, trajectory and sensitivities) runs
+1.27–1.44× faster with the other core busy, as when the DAG runs two jobs on 2 cores, and
+0.94–1.10× on an idle machine; the unperturbed one 0.89–1.00× (the harness's spread). Same
+results to round-off: identical step counts, the field to 4e-12 relative
+(docs/perturbed-e6-e7-e8.md, "sixteenth session"). A process flag rather than per-function
+compile options: jax refuses those on a jit nested in another, so ``jax.jit(jax.vmap(shoot))``
+(benchmarks/sweep.py) would fail.
 """
 import os
 
-import jax
+XLA_CPU_FLAG = "--xla_cpu_use_fusion_emitters=false"
+if "xla_cpu_use_fusion_emitters" not in os.environ.get("XLA_FLAGS", ""):
+    os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} {XLA_CPU_FLAG}".strip()
+
+import jax  # noqa: E402
 
 jax.config.update("jax_enable_x64", True)
 # Persistent XLA compilation cache: every Snakemake job is a new process, and the shooting maps

@@ -21,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
+from functools import partial
 
 import diffrax
 import jax
@@ -31,7 +32,7 @@ from ..errors import ConvergenceError
 from . import hamiltonians as hm
 from .continuation import (POLISH_FAILED, STEP_SIZES, ArclengthContinuation, ArclengthOptions,
                            Continuation, ContinuationOptions)
-from .flow import Model, field as flow_field, integrator_jit
+from .flow import Model, field as flow_field
 from .multiple_shooting import MultipleShooting, node_positions, start_nodes
 from .multiple_shooting import residual as multiple_residual, shoot as multiple_shoot
 from .shooting import Shooting, initial_state, residual, shoot
@@ -382,7 +383,7 @@ def dense(sol: Solution, samples_per_rev: int = 200):
     return np.asarray(Ks), np.asarray(ys)
 
 
-@integrator_jit(static_argnums=(0, 4, 5))
+@partial(jax.jit, static_argnums=(0, 4, 5))
 def _dense(model, y0, K_f, prm, n, max_steps):
     Ks = jnp.linspace(0.0, K_f, n)
     rhs = lambda K, y, args: flow_field(model, K, y, 1.0, args)
@@ -402,7 +403,7 @@ def lp_integrals(sol: Solution) -> dict:
             "tof_s": float(yf[hm.TIME]) * tr.tu}
 
 
-@integrator_jit(static_argnums=(0, 4))
+@partial(jax.jit, static_argnums=(0, 4))
 def _lp_integrals(model, y0, K_f, prm, max_steps):
     n = hm.N_STATE
 

@@ -35,20 +35,6 @@ import jax.numpy as jnp
 
 from . import hamiltonians as hm
 
-# XLA compile options of every function that integrates a field (``integrator_jit``). With XLA's
-# newer CPU fusion emitters off, a perturbed shooting evaluation (4×4 + Moon + Sun, trajectory and
-# sensitivities) runs 1.44× faster, side by side in one run (``benchmarks/perturbed.py --baseline``,
-# paired median of 20 rounds), the unperturbed one 1.00×; the E8 500-rev single-shooting Jacobian
-# 1.2–1.4× (117 s against 165 s, 111 s against 133 s, separate processes). Same results to
-# round-off: identical step counts, the field to 4e-12 relative, the 500-rev residual at rtol
-# 1e-13 to 2e-11 (docs/perturbed-e6-e7-e8.md, "sixteenth session").
-INTEGRATOR_COMPILE_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
-
-
-def integrator_jit(**jit_kwargs):
-    """``jax.jit`` with :data:`INTEGRATOR_COMPILE_OPTIONS`, as a decorator."""
-    return partial(jax.jit, compiler_options=INTEGRATOR_COMPILE_OPTIONS, **jit_kwargs)
-
 
 def hamiltonian_field(H, K, y, n):
     """J ∇H: (∂H/∂λ, −∂H/∂x) for y = (x, λ) with len(x) = n."""

@@ -30,6 +30,7 @@ propagator (:func:`.flow.propagate_with_sensitivities`).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
 import diffrax
 import jax
@@ -37,7 +38,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ConvergenceError
-from .flow import field, integrator_jit, params_at, propagate, propagate_with_sensitivities
+from .flow import field, params_at, propagate, propagate_with_sensitivities
 from .shooting import (Shooting, initial_state, start_with_sensitivities, terminal_residual,
                        terminal_with_derivatives, transversality, transversality_with_derivatives)
 
@@ -81,7 +82,7 @@ def start_nodes(ms: MultipleShooting, z, tau, prm, nodes):
     return np.concatenate([np.asarray(z, float), (weights * ys).ravel()]), weights
 
 
-@integrator_jit(static_argnums=(0, 7))
+@partial(jax.jit, static_argnums=(0, 7))
 def _through_nodes(model, y0, nodes, tau, prm, rtol, atol, max_steps):
     out = diffrax.diffeqsolve(
         diffrax.ODETerm(lambda K, y, args: field(model, K, y, tau, args)), diffrax.Dopri8(),
@@ -113,7 +114,7 @@ def _unpack(ms: MultipleShooting, Z, nodes, weights):
     return z, Kf, ys, jnp.concatenate([jnp.zeros(1), nodes]), jnp.concatenate([nodes, Kf[None]])
 
 
-@integrator_jit(static_argnums=0)
+@partial(jax.jit, static_argnums=0)
 def _residual(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol, atol):
     sh = ms.single
     z, Kf, ys, K0, K1 = _unpack(ms, Z, nodes, weights)
@@ -124,7 +125,7 @@ def _residual(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol, atol):
     return jnp.concatenate([jnp.atleast_1d(transversality(sh, z, tau, prm)), cont, r_term]), jnp.all(ok)
 
 
-@integrator_jit(static_argnums=0)
+@partial(jax.jit, static_argnums=0)
 def _shoot(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol, atol):
     sh, M, w = ms.single, ms.arcs, ms.width
     s, kf = sh.size, sh.kf_index

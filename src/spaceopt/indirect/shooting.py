@@ -24,13 +24,13 @@ g(K_f) (one extra field evaluation), as in the dissertation §3.3. No finite dif
 from __future__ import annotations
 
 from dataclasses import dataclass, field as dc_field
+from functools import partial
 
 import jax
 import jax.numpy as jnp
 
 from . import hamiltonians as hm
-from .flow import (Model, field, hamiltonian, integrator_jit, params_at, propagate,
-                   propagate_with_sensitivities)
+from .flow import Model, field, hamiltonian, params_at, propagate, propagate_with_sensitivities
 from .transfer import MAX_STEPS, PATH_RTOL
 
 COSTATE_NAMES = ("p_p", "p_ex", "p_ey", "p_ix", "p_iy", "p_LK", "p_t", "p_m")
@@ -119,7 +119,7 @@ def residual(sh: Shooting, z, tau, prm, rtol=None, atol=None):
     return _residual(sh, z, tau, prm, sh.rtol if rtol is None else rtol, sh.atol if atol is None else atol)
 
 
-@integrator_jit(static_argnums=0)
+@partial(jax.jit, static_argnums=0)
 def _residual(sh: Shooting, z, tau, prm, rtol, atol):
     kf = sh.kf_index
     y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
@@ -153,7 +153,7 @@ def transversality_with_derivatives(sh: Shooting, z, tau, prm):
     return (r0(z, tau), *jax.jacfwd(r0, argnums=(0, 1))(z, tau))
 
 
-@integrator_jit(static_argnums=0)
+@partial(jax.jit, static_argnums=0)
 def _shoot(sh: Shooting, z, tau, prm, rtol, atol):
     kf = sh.kf_index
     y0, dy0_dz, dy0_dtau = start_with_sensitivities(sh, z, tau, prm)

@@ -34,6 +34,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from functools import partial
 
 import diffrax
 import jax
@@ -44,7 +45,7 @@ from ..errors import ConfigError, ConvergenceError
 from ..indirect import chain
 from ..indirect import hamiltonians as hm
 from ..indirect.continuation import ContinuationOptions
-from ..indirect.flow import Model, field as flow_field, integrator_jit
+from ..indirect.flow import Model, field as flow_field
 from ..indirect.shooting import Shooting, initial_state, shoot
 from ..indirect.transfer import Transfer, step_cap
 from . import multirev
@@ -118,7 +119,7 @@ def newton(sh: Shooting, z0, prm: dict, tol: float, max_iter: int):
 
 # ---------------------------------------------------------------- cell results
 
-@integrator_jit(static_argnums=(0, 1))
+@partial(jax.jit, static_argnums=(0, 1))
 def _final_state(model: Model, max_steps: int, y0, K_f, prm):
     """y(K_f) of the pure problem (τ = 1), primal only, at the end-point tolerance of the chain."""
     rhs = lambda K, y, args: flow_field(model, K, y, 1.0, args)
