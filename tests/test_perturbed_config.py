@@ -98,6 +98,48 @@ def test_scan_start_from_names_scan_dates_without_cycles():
         P.scan_start_from({**PC["e6"], "start_from": {"2021-05-19": "2021-05-18", "2021-05-18": "2021-05-19"}})
 
 
+def _with_e6(**e6):
+    return {**PC, "e6": {**PC["e6"], **e6}}
+
+
+def test_scan_sources_follow_start_from_then_the_warm_start_route():
+    assert P.scan_source(PC, "2021-05-20") == "unperturbed"
+    assert P.scan_source(PC, "2021-05-18") == PC["e6"]["start_from"]["2021-05-18"]
+    chain = _with_e6(warm_start="neighbour", start_from=None)
+    assert P.scan_source(chain, "2021-05-12") == "2021-05-11"       # outward from the 9 May anchor
+    assert P.scan_source(chain, "2021-05-03") == "2021-05-04"
+    assert P.scan_source(chain, "2021-05-09") is None                 # the anchor: the E5 solve
+
+
+def test_skipped_e6_dates_are_left_out_unless_a_date_that_is_run_starts_from_them():
+    assert len(P.scan_run_dates(PC)) == 31
+    run = P.scan_run_dates(_with_e6(skip_dates=["2021-05-20", "2021-05-31"]))
+    assert len(run) == 29 and "2021-05-20" not in run and "2021-05-31" not in run
+    with pytest.raises(ConfigError, match=r"skip_dates.*2021-06-01.*not a date of the scan"):
+        P.scan_run_dates(_with_e6(skip_dates=["2021-06-01"]))
+    # 18 May starts from 17 May (start_from): 17 May alone cannot go, both together can
+    with pytest.raises(ConfigError, match=r"skip_dates.*2021-05-17.*2021-05-18 starts from it"):
+        P.scan_run_dates(_with_e6(skip_dates=["2021-05-17"]))
+    assert len(P.scan_run_dates(_with_e6(skip_dates=["2021-05-17", "2021-05-18", "2021-05-19"]))) == 28
+    # by neighbours, leaving out a date cuts the chain beyond it
+    with pytest.raises(ConfigError, match=r"2021-05-30.*2021-05-31 starts from it"):
+        P.scan_run_dates(_with_e6(warm_start="neighbour", start_from=None, skip_dates=["2021-05-30"]))
+    assert len(P.scan_run_dates(_with_e6(warm_start="neighbour", start_from=None, skip_dates=["2021-05-31"]))) == 30
+
+
+def test_the_e6_summary_and_paper_text_name_the_dates_left_out():
+    unp = {"m_f_kg": 956.0, "tof_days": 60.0}
+    rows = [{"date": d, "model": "g44_moon_sun", "m_f_kg": 956.0 + k, "tof_days": 60.0 - k}
+            for k, d in enumerate(["2021-05-01", "2021-05-03"])]
+    assert "skipped_dates" not in R.e6_summary(rows, unp)
+    summary = R.e6_summary(rows, unp, ["2021-05-02"])
+    assert summary["skipped_dates"] == "2021-05-02" and summary["n_dates"] == 2
+    text = R.paper_section([], {}, None, summary, [], e8_count_start="chain",
+                           smoothing={"eps_final": 1e-5, "eps_blend": 1e-2, "perturb_at_eps": 1e-2,
+                                      "model_step_at_eps": 1e-2}, e8_steps=[])
+    assert "Over 2 departure dates" in text and "skip\\_dates}): 2021-05-02." in text
+
+
 def test_raan_budget_matches_spec_section_6():
     tr = P.transfer_from_config(PC, "e9", "j2")
     b = P.raan_budget(tr, 5.0)
@@ -882,3 +924,20 @@ def test_e8_figure_breaks_the_line_at_a_missing_count(tmp_path, monkeypatch):
     assert [d[0] for d in drawn] == ["unperturbed", "g44_moon_sun"]
     full = drawn[1]
     assert full[1] == [400, 450, 500] and full[2][0] == 159.6 and math.isnan(full[2][1]) and full[2][2] == 156.8
+
+
+def test_e6_figures_break_the_lines_at_the_dates_left_out(tmp_path, monkeypatch):
+    """Figs. 4.2.1.4–5 with ``skip_dates``: a gap (NaN) at each date left out, not a segment
+    bridging it, and the date marked."""
+    from spaceopt.studies import perturbed_figures as F
+    drawn = []
+    monkeypatch.setattr(F, "save_figure", lambda fig, path: drawn.append(
+        [(list(ln.get_xdata()), list(ln.get_ydata())) for ln in fig.axes[0].lines]))
+    dates = ["2021-05-01", "2021-05-02", "2021-05-04"]
+    rows = [{"date": d, "model": "g44_moon_sun", "m_f_kg": 956.0 + k, "tof_days": 60.0} for k, d in enumerate(dates)]
+    F.date_scan(rows, tmp_path / "scan", skipped=["2021-05-03"])
+    F.costates_vs_date(dates, [{"p_p": 0.1 * k} for k in range(3)], tmp_path / "costates", skipped=["2021-05-03"])
+    for lines in drawn:
+        x, y = lines[0]
+        assert x == [1, 2, 3, 4] and math.isnan(y[2]) and not any(map(math.isnan, y[:2] + y[3:]))
+        assert any(ln[0] == [3, 3] for ln in lines[1:])             # the vertical mark at day 3

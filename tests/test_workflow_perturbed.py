@@ -79,3 +79,23 @@ def test_paper_command_of_the_full_profile_passes_its_empty_profile_note():
     assert rc == 0, out[-2000:]
     cmd = next(line for line in out.splitlines() if "paper_build.py" in line and "--tex" in line)
     assert "--note=" in cmd and "--note " not in cmd + " "
+
+
+def test_a_date_listed_in_skip_dates_by_an_overlay_config_is_left_out_of_the_plan(tmp_path):
+    """The remedy the README gives for an E6 date that does not converge: name it in
+    ``perturbed.e6.skip_dates`` of a file passed with --configfile. Snakemake merges that nested
+    key into the study config (the rest of ``perturbed.e6`` stays), and the tables no longer
+    wait for the date."""
+    overlay = tmp_path / "skip.yaml"
+    overlay.write_text('perturbed:\n  e6:\n    skip_dates: ["2021-05-20"]\n')
+    rc, out = smk("-n", "--forceall", "--cores", "2", "results/perturbed/e6_date_scan.csv",
+                  "--configfile", str(overlay))             # after the target: it takes several files
+    assert rc == 0, out[-2000:]
+    e6 = planned_inputs(out, "perturbed_e6_date")
+    assert len(e6) == 30
+    assert not any("2021-05-20" in output for output in e6)
+    assert any("2021-05-18" in output for output in e6)          # start_from kept by the merge
+    bad = tmp_path / "bad.yaml"
+    bad.write_text('perturbed:\n  e6:\n    skip_dates: ["2021-05-17"]\n')
+    rc, out = smk("-n", "--cores", "1", "results/perturbed/e6_date_scan.csv", "--configfile", str(bad))
+    assert rc != 0 and "error: perturbed.e6.skip_dates" in out and "Traceback" not in out, out[-2000:]

@@ -4,9 +4,10 @@
 #   results/perturbed/e8/<model>_n<n>.{json,npz,rrd}    E8 (n to n; perturbed from unperturbed at n)
 #   results/perturbed/e9_budget.json                    ΔΩ budget check (spec §6)
 #   results/perturbed/{e5,e6_date_scan,e7,e8,e9}.csv, reproduction.csv, paper_section.tex, figures/
-from spaceopt.studies.perturbed import e8_count_start, e8_model_steps, e8_runs, e8_smoothing, scan_start_from
+from spaceopt.studies.perturbed import (e8_count_start, e8_model_steps, e8_runs, e8_smoothing, scan_run_dates,
+                                        scan_source)
 
-check_section("perturbed", physical=lambda pc: (scan_start_from(pc["e6"]), e8_runs(pc)))
+check_section("perturbed", physical=lambda pc: (scan_run_dates(pc), e8_runs(pc)))
 PT = config["perturbed"]
 PTDIR = f"{RESULTS}/perturbed"
 PT_SRC = lib_sources("indirect", "elements", "forces", "ephemeris", "frames", "artifacts",
@@ -86,27 +87,12 @@ rule perturbed_solve:
 # ---------------------------------------------------------------- E6 departure scan
 
 E6 = PT["e6"]
-E6_START_FROM = scan_start_from(E6)     # checked once by check_section above
-
-
-def pt_e6_dates():
-    from spaceopt.studies.perturbed import scan_dates
-    return [d[:10] for d in scan_dates(E6)]
+E6_DATES = scan_run_dates(PT)           # checked once by check_section above (skip_dates left out)
 
 
 def pt_e6_source(date):
-    """What a date warm-starts from. warm_start: unperturbed (default) — the unperturbed OT of
-    the E6 case (date independent), the perturbations then switched on by τ, so every date is
-    an independent job; neighbour — the neighbouring date towards the E5 anchor (None: the E5
-    solve itself). A date of ``start_from`` starts from the converged date named there."""
-    from spaceopt.studies.perturbed import scan_dates, scan_order
-    if date in E6_START_FROM:
-        return E6_START_FROM[date]
-    if E6.get("warm_start", "unperturbed") == "unperturbed":
-        return "unperturbed"
-    anchor = PT["cases"][E6["case"]]["epoch_utc"]
-    pairs = dict((d[:10], s[:10]) for d, s in scan_order(scan_dates(E6), anchor))
-    return pairs.get(date)
+    """What a date warm-starts from (spaceopt.studies.perturbed.scan_source)."""
+    return scan_source(PT, date)
 
 
 def pt_e6_inputs(w):
@@ -196,7 +182,7 @@ def pt_stage_jsons():
                 out[f"{case}_{m}"] = f"{PTDIR}/{case}/{m}.json"
     if "e6" in run:
         out[f"e5_{E6['model']}"] = f"{PTDIR}/{E6['case']}/{E6['model']}.json"
-        for d in pt_e6_dates():
+        for d in E6_DATES:
             out[f"e6_{d}"] = f"{PTDIR}/e6/{d}.json"
     if "e8" in run:
         for m, n in e8_runs(PT):
@@ -251,6 +237,7 @@ rule perturbed_paper_section:
            _src=lib_sources("studies/perturbed_report")
     output: f"{PTDIR}/paper_section.tex"
     params: run=PT["run"], results=RESULTS, e8_count_start=e8_count_start(PT), e8_smoothing=e8_smoothing(PT),
+            e6_skipped=E6.get("skip_dates") or [],
             e8_steps=e8_model_steps(PT)
     log: f"{PTDIR}/logs/paper_section.log"
     script: "../scripts/perturbed_paper_section.py"

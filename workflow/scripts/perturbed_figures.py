@@ -24,9 +24,11 @@ def main(sm):
         payloads = {k: artifacts.read_json(v) for k, v in stages.items() if k.startswith("e6_") or k == "e5_unperturbed"}
         tabs = R.tables(payloads, ["e6"], cases, sm.params.e6, [])
         rows = R.e6_with_unperturbed(tabs["e6_date_scan"], R.summary_or_none(payloads, "e5_unperturbed"))
-        F.date_scan(rows, out / "fig_4_2_1_4")
+        skipped = sm.params.e6.get("skip_dates") or []
+        F.date_scan(rows, out / "fig_4_2_1_4", skipped=skipped)
         keys = sorted(k for k in payloads if k.startswith("e6_"))
-        F.costates_vs_date([k[3:] for k in keys], [payloads[k]["scalars"]["costates"] for k in keys], out / "fig_4_2_1_5")
+        F.costates_vs_date([k[3:] for k in keys], [payloads[k]["scalars"]["costates"] for k in keys],
+                           out / "fig_4_2_1_5", skipped=skipped)
     if "e7" in run:
         runs = {m: npz(f"e7_{m}") for m in cases["e7"]["models"] if f"e7_{m}" in stages}
         F.projections_3d(runs, "E7: GTO -> Molniya, 100 rev, 1 N (thick: burns)", out / "fig_4_2_1_6")

@@ -27,7 +27,7 @@ def main(sm):
     budget = artifacts.read_json(sm.input.budget)["budget"]
     e6 = _read(sm.input.e6_date_scan)
     unp = next((r for r in e6 if r["model"] == "unperturbed"), None)
-    e6sum = R.e6_summary(e6, unp)
+    e6sum = R.e6_summary(e6, unp, sm.params.e6_skipped)
     Path(sm.output[0]).write_text(R.paper_section(rows, {}, budget, e6sum, list(sm.input.figures),
                                                   e8_count_start=sm.params.e8_count_start,
                                                   smoothing=sm.params.e8_smoothing,

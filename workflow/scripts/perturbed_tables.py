@@ -20,7 +20,7 @@ def main(sm):
     for name, cols in R.COLUMNS.items():
         write_csv(getattr(sm.output, name), tabs[name], cols)
     budget = artifacts.read_json(sm.input._budget)["budget"]
-    e6sum = R.e6_summary(tabs["e6_date_scan"], unpert)
+    e6sum = R.e6_summary(tabs["e6_date_scan"], unpert, sm.params.e6.get("skip_dates") or [])
     Path(sm.output.md).write_text(R.markdown(tabs, e6sum, budget))
     Path(sm.output.tex).parent.mkdir(parents=True, exist_ok=True)
     Path(sm.output.tex).write_text(R.latex(tabs))

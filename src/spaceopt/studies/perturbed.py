@@ -506,6 +506,42 @@ def scan_start_from(e6: dict) -> dict[str, str]:
     return dict(start_from)
 
 
+def scan_source(pc: dict, date: str) -> str | None:
+    """What E6 date ``date`` (YYYY-MM-DD) warm-starts from: a date of ``start_from`` from the
+    converged date named there; otherwise, with ``warm_start: unperturbed`` (the default),
+    'unperturbed' (the date-independent unperturbed OT of the E6 case, perturbations then
+    switched on by τ: every date an independent job); with ``warm_start: neighbour``, the
+    neighbouring date towards the E5 anchor (None for the anchor: the E5 solve itself)."""
+    e6 = pc["e6"]
+    start_from = scan_start_from(e6)
+    if date in start_from:
+        return start_from[date]
+    if e6.get("warm_start", "unperturbed") == "unperturbed":
+        return "unperturbed"
+    anchor = pc["cases"][e6["case"]]["epoch_utc"]
+    return dict((d[:10], s[:10]) for d, s in scan_order(scan_dates(e6), anchor)).get(date)
+
+
+def scan_run_dates(pc: dict) -> list[str]:
+    """The E6 dates (YYYY-MM-DD) the DAG solves: the scan's dates less ``perturbed.e6.skip_dates``
+    (dates whose solve does not converge on a machine, left out so that the tables, figures and
+    paper are built without them; the report lists them). Checked: each skipped date is a scan
+    date, and no date that is run starts from a skipped one."""
+    e6 = pc["e6"]
+    days = [d[:10] for d in scan_dates(e6)]
+    skip = e6.get("skip_dates") or []
+    for d in skip:
+        if d not in days:
+            raise ConfigError("perturbed.e6.skip_dates", d, "not a date of the scan")
+    run = [d for d in days if d not in skip]
+    for d in run:
+        src = scan_source(pc, d)
+        if src in skip:
+            raise ConfigError("perturbed.e6.skip_dates", src,
+                              f"date {d} starts from it (start_from / warm_start: neighbour); skip {d} too, or start it elsewhere")
+    return run
+
+
 # ---------------------------------------------------------------- E8 counts
 
 def e8_count_start(pc: dict) -> str:

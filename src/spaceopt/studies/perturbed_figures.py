@@ -112,15 +112,34 @@ def controls(runs: dict, title: str, path, with_delta=False, with_elements=()):
     _time_series(runs, keys, title, path, row_height=1.7, lw=0.6)
 
 
-def date_scan(rows: list, path, title="E6: departure date scan, May 2021"):
+def _day(date: str) -> int:
+    return int(date[8:10])
+
+
+def _with_gaps(days: list, values: list, skipped: list):
+    """(days, values) with a NaN at each skipped day, so that a line breaks there instead of
+    bridging the date that was left out (``perturbed.e6.skip_dates``)."""
+    pts = sorted([*zip(days, values), *((_day(d), np.nan) for d in skipped)])
+    return [d for d, _ in pts], [v for _, v in pts]
+
+
+def _mark_skipped(ax, skipped: list):
+    for k, d in enumerate(skipped):
+        ax.axvline(_day(d), color="0.6", ls=":", lw=1, label="left out (skip_dates)" if k == 0 else None)
+
+
+def date_scan(rows: list, path, title="E6: departure date scan, May 2021", skipped=()):
+    """Fig. 4.2.1.4: m_f and Δt against the departure day, the unperturbed line dashed; the
+    dates of ``skipped`` (left out of the run) break the curve and are marked."""
     pert = [r for r in rows if r["model"] != "unperturbed"]
     unp = [r for r in rows if r["model"] == "unperturbed"]
-    day = [int(r["date"][8:10]) for r in pert]
+    day = [_day(r["date"]) for r in pert]
     fig, axes = plt.subplots(1, 2, figsize=(11, 3.8))
     for ax, k, lab in ((axes[0], "m_f_kg", "m_f, kg"), (axes[1], "tof_days", "Δt, days")):
-        ax.plot(day, [r[k] for r in pert], "o-", color="tab:red", ms=3, label="perturbed")
+        ax.plot(*_with_gaps(day, [r[k] for r in pert], skipped), "o-", color="tab:red", ms=3, label="perturbed")
         if unp:
             ax.axhline(unp[0][k], color="tab:blue", ls="--", label="unperturbed")
+        _mark_skipped(ax, skipped)
         ax.set_xlabel("departure day, May 2021 (12:00 UTC)"); ax.set_ylabel(lab)
     axes[0].legend(fontsize=8)
     fig.suptitle(title)
@@ -129,12 +148,15 @@ def date_scan(rows: list, path, title="E6: departure date scan, May 2021"):
     plt.close(fig)
 
 
-def costates_vs_date(dates: list, costates: list, path, title="E6: initial costates vs departure date"):
+def costates_vs_date(dates: list, costates: list, path, title="E6: initial costates vs departure date",
+                     skipped=()):
+    """Fig. 4.2.1.5: each initial costate against the departure day (gaps at ``skipped``)."""
     names = sorted({k for c in costates for k in c})
     fig, axes = plt.subplots(len(names), 1, figsize=(8, 1.4 * len(names)), sharex=True)
-    day = [int(d[8:10]) for d in dates]
+    day = [_day(d) for d in dates]
     for ax, n in zip(np.atleast_1d(axes), names):
-        ax.plot(day, [c.get(n, np.nan) for c in costates], "o-", ms=2)
+        ax.plot(*_with_gaps(day, [c.get(n, np.nan) for c in costates], skipped), "o-", ms=2)
+        _mark_skipped(ax, skipped)
         ax.set_ylabel(n, fontsize=8)
     np.atleast_1d(axes)[-1].set_xlabel("departure day, May 2021")
     fig.suptitle(title)

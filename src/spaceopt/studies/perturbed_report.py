@@ -106,8 +106,10 @@ def e6_with_unperturbed(rows: list, unperturbed: dict | None) -> list:
     return out
 
 
-def e6_summary(rows: list, unperturbed: dict | None) -> dict:
-    """Extreme and mean gains of final mass and changes of transfer time over the month."""
+def e6_summary(rows: list, unperturbed: dict | None, skipped=()) -> dict:
+    """Extreme and mean gains of final mass and changes of transfer time over the month, over
+    the dates that were run; ``skipped``: the dates left out (``perturbed.e6.skip_dates``),
+    listed in the summary as 'skipped_dates'."""
     pert = [r for r in rows if r["model"] != "unperturbed"]
     if not pert or unperturbed is None:
         return {}
@@ -119,7 +121,7 @@ def e6_summary(rows: list, unperturbed: dict | None) -> dict:
             "dm_mean_kg": float(dm.mean()), "dt_mean_days": float(dt.mean()),
             "dt_max_days": float(dt.max()), "dt_max_date": dates[int(dt.argmax())],
             "dt_min_days": float(dt.min()), "dt_min_date": dates[int(dt.argmin())],
-            "n_dates": len(pert)}
+            "n_dates": len(pert), **({"skipped_dates": ", ".join(skipped)} if skipped else {})}
 
 
 def e8_by_count(tabs: dict) -> dict:
@@ -390,7 +392,9 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
                   f"{e6sum['dm_min_kg']:+.3f} kg ({latex_escape(e6sum['dm_min_date'])}) to "
                   f"{e6sum['dm_max_kg']:+.3f} kg ({latex_escape(e6sum['dm_max_date'])}), mean "
                   f"{e6sum['dm_mean_kg']:+.3f} kg; the transfer time changes by "
-                  f"{e6sum['dt_mean_days']:+.3f} d on average.", ""]
+                  f"{e6sum['dt_mean_days']:+.3f} d on average."
+                  + (f" Left out of this run (\\texttt{{perturbed.e6.skip\\_dates}}): "
+                     f"{latex_escape(e6sum['skipped_dates'])}." if e6sum.get("skipped_dates") else ""), ""]
     lines.append(r"\input{" + resultsdir_macro + "/perturbed/tables/perturbed.tex}")
     for f in figures:
         stem = Path(f).stem
