@@ -152,3 +152,16 @@ def test_snakemake_reports_bad_config_in_one_line(tmp_path):
     assert res.returncode != 0
     assert "Traceback" not in res.stderr
     assert lines == ["error: multirev.spacecraft.isp_s=-5.0: -5.0 is less than or equal to the minimum of 0"], lines
+
+
+def test_an_unquoted_date_in_the_config_is_named_with_the_quoted_form_to_write():
+    """YAML reads ``skip_dates: [2021-05-20]`` as a date object, which the schema's string
+    pattern rejects; the one-line error says how to write it."""
+    import datetime
+    root = Path(__file__).resolve().parents[1]
+    cfg = {"perturbed": yaml.safe_load((root / "config/studies/perturbed.yaml").read_text())["perturbed"]}
+    cfg["perturbed"]["e6"]["skip_dates"] = [datetime.date(2021, 5, 20)]
+    with pytest.raises(ConfigError) as info:
+        validate_section(cfg, "perturbed", root / "config/schema/perturbed.schema.yaml")
+    msg = str(info.value)
+    assert msg.startswith("perturbed.e6.skip_dates.0") and '(quote it: "2021-05-20")' in msg and "\n" not in msg

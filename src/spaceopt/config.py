@@ -7,6 +7,7 @@ ephemeris, …) are done by the study modules and raise :class:`~spaceopt.errors
 """
 from __future__ import annotations
 
+from datetime import date, datetime
 from pathlib import Path
 
 import yaml
@@ -47,4 +48,7 @@ def validate_section(config: dict, name: str, schema_path) -> None:
         if err is None:
             raise ConfigError(name, "?", str(exc).strip().splitlines()[0]) from None
         key = ".".join([name] + [str(p) for p in err.absolute_path])
-        raise ConfigError(key, err.instance, err.message.split("\n")[0]) from None
+        message = err.message.split("\n")[0]
+        if isinstance(err.instance, (date, datetime)):   # YAML reads an unquoted 2021-05-20 as a date
+            message += f' (quote it: "{err.instance.isoformat()}")'
+        raise ConfigError(key, err.instance, message) from None
