@@ -10,7 +10,14 @@ K_f, whether the engine is on at K = 0 and the number of burn arcs:
   foldjump W_REF            LP → OT blend (3.3.1) in τ up to its fold, then the Newton homotopy
                             at the OT problem from the last point of the path (a jump over the fold)
   l0 L0_DEG …               chain at another L₀ (L_f = L₀ + 1800°), then continued in L₀ to 160°
-  variant NAME …            other readings of Table 4.2.1.1 (final_lonperi: ω_f = 90° − Ω_f)
+  variant NAME …            other readings of Table 4.2.1.1 (final_lonperi: ω_f = 90° − Ω_f;
+                            earth_radius: altitudes over R = 6378.137 km instead of 6371 km)
+  printed BEST              the printed unperturbed costates as a direction, z = c·(d·p_p, p_ex,
+                            p_ey, p_ix, p_iy, p_LK, p_m), K_f printed: the residual on a grid of
+                            the two unknown scales (c: cost unit, d: length-unit ratio), then the
+                            Newton homotopy from the BEST grid points
+  thrust T …                chain at thrust T, then continued in the thrust to 0.5 N
+  smoothing EPS …           ours continued upwards in ε (is the published one a smoothed solution?)
 
 Run from the repository root after ``./dev reproduce`` has written results/perturbed/e5/:
 ``.venv/bin/python docs/experiments/e5_extremal_search.py multistart 0 0.3 8``.
@@ -27,7 +34,7 @@ import yaml
 
 jax.config.update("jax_enable_x64", True)
 from spaceopt.errors import ConvergenceError  # noqa: E402
-from spaceopt.indirect import chain, hamiltonians as hm  # noqa: E402
+from spaceopt.indirect import chain, hamiltonians as hm, shooting as S  # noqa: E402
 from spaceopt.indirect.continuation import ContinuationOptions  # noqa: E402
 from spaceopt.studies import perturbed as P  # noqa: E402
 
@@ -91,7 +98,13 @@ def l0(*l0_deg):
 
 
 def variant(*names):
-    readings = {"final_lonperi": {"final": dataclasses.replace(TR.final, argp=(90.0 - TR.final.raan) % 360.0)}}
+    def over(R, o, hp, ha):                         # the same altitudes over another Earth radius
+        a = R + (hp + ha) / 2
+        return dataclasses.replace(o, a=a, e=(ha - hp) / (2 * a))
+    r_e = 6378137.0
+    readings = {"final_lonperi": {"final": dataclasses.replace(TR.final, argp=(90.0 - TR.final.raan) % 360.0)},
+                "earth_radius": {"initial": over(r_e, TR.initial, 500e3, 600000e3),
+                                 "final": over(r_e, TR.final, 20000e3, 250000e3)}}
     for name in names:
         tr = dataclasses.replace(TR, **readings[name])
         try:
@@ -100,5 +113,51 @@ def variant(*names):
             print(f"{name}: no convergence ({exc})", flush=True)
 
 
+def printed(best):
+    pub = yaml.safe_load(open("config/published/yun2023_perturbed.yaml"))
+    costates = pub["printed_costates"]["e5_unperturbed"]
+    assert costates["order"] == [n for n in SH.unknown_names() if n != "K_f"]
+    z_pub = np.array(costates["value"])
+    K_f = math.radians(next(r["value"] for r in pub["values"]
+                            if r["case"] == "e5_unperturbed" and r["quantity"] == "K_f_deg"))
+
+    def start(c, d):
+        z = c * z_pub
+        z[0] *= d
+        return np.append(z, K_f)
+    grid = [(c, d) for c in np.logspace(-1.5, 1.5, 41) for d in np.logspace(-1.5, 0.7, 45)]
+    residual = jax.jit(jax.vmap(lambda z: S.residual(SH, z, 1.0, PRM, 1e-9, 1e-10)))
+    f, ok = residual(jnp.asarray([start(c, d) for c, d in grid]))
+    size = np.where(np.asarray(ok), np.linalg.norm(np.asarray(f)[:, 1:7], axis=1), np.inf)
+    for k in np.argsort(size)[:int(best)]:
+        c, d = grid[k]
+        print(f"c={c:.4g} d={d:.4g}: |f_elements| = {size[k]:.3e}", flush=True)
+        solve_from(start(c, d), f"c={c:.4g} d={d:.4g}")
+
+
+def thrust(*thrust_N):
+    for T in map(float, thrust_N):
+        try:
+            _, ot = P.solve_for(dataclasses.replace(TR, thrust=T), f"T={T:g}", path="tau", options=QUIET,
+                                route="lp-tmin-ot")
+            report(ot, f"T={T:g}")
+            sol = chain.continue_in_params(ot, PRM, QUIET, label=f"T {T:g} -> {TR.thrust:g}", path="arclength")
+            report(dataclasses.replace(sol, transfer=TR, thrust_N=TR.thrust), f"T={T:g} -> {TR.thrust:g}")
+        except ConvergenceError as exc:
+            print(f"T={T:g}: no convergence ({exc})", flush=True)
+
+
+def smoothing(*eps):
+    _, sol = P.solve_for(TR, "ours", path="tau", options=QUIET, route="lp-tmin-ot")
+    for e in map(float, eps):
+        try:
+            sol = chain.smoothing_to(sol, e, QUIET, label=f"eps {e:g}")
+            report(sol, f"eps={e:g}")
+        except ConvergenceError as exc:
+            print(f"eps={e:g}: no convergence ({exc})", flush=True)
+            break
+
+
 if __name__ == "__main__":
-    {"multistart": multistart, "foldjump": foldjump, "l0": l0, "variant": variant}[sys.argv[1]](*sys.argv[2:])
+    {"multistart": multistart, "foldjump": foldjump, "l0": l0, "variant": variant, "printed": printed,
+     "thrust": thrust, "smoothing": smoothing}[sys.argv[1]](*sys.argv[2:])

@@ -198,7 +198,8 @@ def ours(tabs: dict, payloads: dict, npzs: dict, budget: dict | None) -> dict:
 E5U_OTHER = ("another extremal of the same problem: ours coasts at K = 0 (S(0) < 0) and keeps 0.87 kg more "
              "than the thesis's, which starts with a burn (printed p_LK(0) < 0); reached by LP -> T_min -> OT, "
              "the (3.3.1) blend path the thesis followed folds here (tau 0.172 / 0.972); a jump over the fold, "
-             "11 random starts and a continuation from L0 = 100 deg all end on ours (docs/e5-extremals.md)")
+             "11 random starts, starts along the printed costates (both unit scales searched), continuations "
+             "in the thrust (0.45-1 N) and from L0 = 100 deg all end on ours (docs/e5-extremals.md)")
 E5P_OTHER = ("the zero-guess chain folds (T_min -> OT, tau 0.286); fallback warm start from our unperturbed extremal "
              "(perturbation strength in arclength, S-shaped fold pair at tau 0.22-0.32) reaches an extremal ~5 d "
              "longer: a different extremal, beyond model choices (ERA, UT1=UTC, TDB, EGM96 GM/a_e, central mu)")
