@@ -180,8 +180,9 @@ def pt_stage_jsons():
         if case in run:
             for m in PT["cases"][case]["models"]:
                 out[f"{case}_{m}"] = f"{PTDIR}/{case}/{m}.json"
-    if "e6" in run:
-        out[f"e5_{E6['model']}"] = f"{PTDIR}/{E6['case']}/{E6['model']}.json"
+    if "e6" in run:      # with the scan's unperturbed line (the E5 unperturbed solve), also when E5 is not run
+        for m in ("unperturbed", E6["model"]):
+            out[f"e5_{m}"] = f"{PTDIR}/{E6['case']}/{m}.json"
         for d in E6_DATES:
             out[f"e6_{d}"] = f"{PTDIR}/e6/{d}.json"
     if "e8" in run:
