@@ -119,6 +119,14 @@ CLI_CASES = [
     (_with("--l0-deg", "east"), "l0_deg", "east"),
     (GOOD + ["--mu-km3-s2", "-1"], "mu_km3_s2", "-1"),
     (GOOD + ["--eps-final", "2"], "eps_final", "2"),
+    (GOOD + ["--geopotential", "j2"], "epoch_utc", "None"),                       # perturbed, no epoch
+    (GOOD + ["--geopotential", "4by4", "--epoch-utc", "2021-05-09T12:00:00"], "geopotential", "4by4"),
+    (GOOD + ["--geopotential", "8x8", "--epoch-utc", "2021-05-09T12:00:00"], "geopotential.degree", "8"),
+    (GOOD + ["--third-bodies", "moon,mars", "--epoch-utc", "2021-05-09T12:00:00"], "third_bodies", "mars"),
+    (GOOD + ["--third-bodies", "moon", "--epoch-utc", "2300-01-01T00:00:00"], "epoch_utc", "2300-01-01"),
+    (GOOD + ["--geopotential", "j2", "--epoch-utc", "2021-13-09T12:00:00"], "epoch", "2021-13-09"),
+    (GOOD + ["--geopotential", "4x4", "--earth-angle", "gmst", "--epoch-utc", "2021-05-09T12:00:00"],
+     "earth_angle", "gmst"),
 ]
 
 

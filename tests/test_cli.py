@@ -44,3 +44,23 @@ def test_convergence_error_carries_the_path_history():
     with pytest.raises(ConvergenceError) as info:
         chain.solve_lp(tr, ContinuationOptions(h_init=0.5, h_max=0.5, h_min=0.4, max_corrector=1, verbose=False))
     assert info.value.diagnosis["tau"] < 1.0
+
+
+def test_perturbations_are_switched_on_after_the_unperturbed_chain(tmp_path, capsys):
+    """--geopotential/--third-bodies/--epoch-utc: the OT solution continued into the perturbed
+    problem (J2, Moon and Sun from a DE405 window cut for the transfer), both artifacts written."""
+    rc = cli.main(E1 + ["--thrust-n", "15", "--out", str(tmp_path), "--geopotential", "j2",
+                        "--third-bodies", "moon,sun", "--epoch-utc", "2021-05-09T12:00:00"])
+    assert rc == 0, capsys.readouterr().err
+    unp = json.loads((tmp_path / "ot.json").read_text())
+    pert = json.loads((tmp_path / "ot_perturbed.json").read_text())
+    assert pert["extra"]["perturbations"] == {"geopotential": "j2", "third_bodies": ["moon", "sun"], "earth_angle": "era"}
+    assert pert["extra"]["epoch_utc"] == "2021-05-09T12:00:00"
+    assert pert["solver"]["final_residual"] < 1e-8
+    assert pert["extra"]["p_t0"] != 0.0                      # the Moon and Sun make H depend on t
+    dm = pert["scalars"]["m_f_kg"] - unp["scalars"]["m_f_kg"]
+    assert 0 < abs(dm) < 0.5                                  # a 2.5-day transfer: a small change
+    window = json.loads((tmp_path / "ephemeris.json").read_text())["coverage"]
+    t_end = (window["end_jd_tdb"] - window["start_jd_tdb"]) - 3       # days after the epoch, at least
+    assert t_end > pert["scalars"]["tof_days"]
+    assert "perturbed:" in capsys.readouterr().out

@@ -1,10 +1,17 @@
-"""Command line: ``spaceopt solve`` for a user's own transfer (LP -> T_min verdict -> OT).
+"""Command line: ``spaceopt solve`` for a user's own transfer (LP -> T_min verdict -> OT, then
+the perturbations switched on when asked for).
 
 Example (dissertation §4.1 E1)::
 
     spaceopt solve --initial a_km=36621,e=0.812375413,i_deg=7,raan_deg=0,argp_deg=178 \\
                    --final a_km=42164,e=0,i_deg=0 --m0-kg 1000 --isp-s 1520 --thrust-n 15 \\
                    --n-rev 2 --l0-deg 300 --out results/user/e1
+
+With ``--geopotential j2|4x4`` and/or ``--third-bodies moon,sun`` and a departure epoch
+``--epoch-utc``, the unperturbed OT solution is continued into the perturbed problem: the
+perturbations are switched on by τ and the path followed in arclength
+(:func:`spaceopt.studies.perturbed.perturb_from_unperturbed`, the route of the §4.2 studies);
+a DE405 window for the Moon and the Sun is cut for the transfer (``ephemeris.json``).
 
 Orbit elements carry their units in the key names. Exit status: 0 when the chain finished
 (including the verdict "no transfer exists"), 1 for bad input (one line naming the key and the
@@ -13,12 +20,14 @@ value), 2 when a continuation did not converge (its diagnosis is written next to
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import sys
 import time
 from pathlib import Path
 
+SCALARS = ("tof_days", "m_f_kg", "burn_days", "dv_m_s", "K_f_deg")
 ORBIT_KEYS = {"a_km": 1e3, "e": 1.0, "i_deg": 1.0, "raan_deg": 1.0, "argp_deg": 1.0}
 
 
@@ -84,6 +93,12 @@ def build_parser():
     s.add_argument("--l0-deg", default="0")
     s.add_argument("--mu-km3-s2", default="398600.436")
     s.add_argument("--eps-final", default="1e-5")
+    s.add_argument("--geopotential", default="none",
+                   help="none | j2 | DxO (EGM96 degree x order, e.g. 4x4): the OT solution is then continued "
+                        "into the perturbed problem")
+    s.add_argument("--third-bodies", default="", help="comma list of moon, sun (DE405)")
+    s.add_argument("--epoch-utc", help="departure epoch, e.g. 2021-05-09T12:00:00 (needed with perturbations)")
+    s.add_argument("--earth-angle", default="era", help="era | gast: Earth rotation of the geopotential")
     s.add_argument("--out", default="results/user")
     s.add_argument("--quiet", action="store_true")
     return p
@@ -94,7 +109,7 @@ def solve(args) -> int:
     from .indirect import chain
     from .indirect.continuation import ContinuationOptions
     from .indirect.transfer import Transfer
-    from .studies import multirev
+    from .studies import multirev, perturbed
     from . import artifacts
 
     try:
@@ -105,6 +120,8 @@ def solve(args) -> int:
                   _positive("n_rev")(args.n_rev), _positive("m0_kg")(args.m0_kg),
                   _positive("isp_s")(args.isp_s), _positive("thrust_n")(args.thrust_n),
                   mu=_positive("mu_km3_s2")(args.mu_km3_s2) * 1e9, eps_final=_positive("eps_final")(args.eps_final))
+    perturbations = parse_perturbations(args)
+    epoch = args.epoch_utc
     out = Path(args.out)
     cfg = {"cli": vars(args)}
     opts = ContinuationOptions(verbose=not args.quiet)
@@ -121,12 +138,68 @@ def solve(args) -> int:
             return 0
         ot = chain.solve_ot(lp, tr.thrust, opts)
         sc = multirev.save(ot, out / "ot.json", cfg, time.perf_counter() - t0)["scalars"]
+        print(json.dumps({k: sc[k] for k in SCALARS}, indent=1))
+        if perturbations:
+            tr_p = dataclasses.replace(tr, perturbations=perturbations, epoch_utc=epoch,
+                                       ephemeris=_ephemeris_window(perturbations, epoch, sc["tof_days"], out, cfg))
+            pert = perturbed.perturb_from_unperturbed(ot, tr_p, "perturbed", options=opts)
+            sc = perturbed.save(pert, out / "ot_perturbed.json", cfg, time.perf_counter() - t0)["scalars"]
+            print("perturbed:")
+            print(json.dumps({k: sc[k] for k in SCALARS}, indent=1))
     except ConvergenceError as exc:
         artifacts.write_failure(out / "failure.json", exc, cfg)
         print(f"error: {exc} (diagnosis in {out / 'failure.json'})", file=sys.stderr)
         return 2
-    print(json.dumps({k: sc[k] for k in ("tof_days", "m_f_kg", "burn_days", "dv_m_s", "K_f_deg")}, indent=1))
     return 0
+
+
+def parse_perturbations(args) -> dict | None:
+    """The force model of ``--geopotential``, ``--third-bodies``, ``--earth-angle`` as a
+    :func:`spaceopt.forces.build_model` config (None: unperturbed), checked by building it."""
+    from .errors import ConfigError
+
+    text = args.geopotential.strip().lower()
+    if text in ("", "none"):
+        geo = None
+    elif text == "j2":
+        geo = "j2"
+    else:
+        try:
+            degree, order = (int(v) for v in text.split("x"))
+        except ValueError:
+            raise ConfigError("geopotential", args.geopotential, "expected none, j2 or DxO, e.g. 4x4") from None
+        geo = {"degree": degree, "order": order}
+    bodies = [b.strip().lower() for b in args.third_bodies.split(",") if b.strip()]
+    if geo is None and not bodies:
+        return None
+    cfg = {"geopotential": geo, "third_bodies": bodies, "earth_angle": args.earth_angle}
+    if args.epoch_utc is None:
+        raise ConfigError("epoch_utc", None, "perturbations need a departure epoch, e.g. --epoch-utc 2021-05-09T12:00:00")
+    from .ephemeris import check_in_de405
+    from .forces import THIRD_BODY_MU, build_model
+    build_model({**cfg, "third_bodies": []}, args.epoch_utc, key="perturbations")   # names a bad value
+    for b in bodies:
+        if b not in THIRD_BODY_MU:
+            raise ConfigError("third_bodies", b, f"unknown body; expected one of {', '.join(sorted(THIRD_BODY_MU))}")
+    if bodies:
+        check_in_de405(args.epoch_utc, "epoch_utc")
+    return cfg
+
+
+def _ephemeris_window(perturbations: dict, epoch: str, tof_days: float, out: Path, cfg: dict) -> str | None:
+    """A DE405 window of the Moon and the Sun covering the transfer (``out/ephemeris.json``):
+    from a day before the epoch to twice the unperturbed time of flight plus 30 days after it
+    (perturbations lengthened E5 by 8 %), None when no third body is asked for."""
+    if not perturbations["third_bodies"]:
+        return None
+    from datetime import datetime, timedelta
+    from .ephemeris import extract_window, save_window
+    t0 = datetime.fromisoformat(epoch)
+    span = (t0 - timedelta(days=1), t0 + timedelta(days=2 * tof_days + 30))
+    window = extract_window(*(d.strftime("%Y-%m-%dT%H:%M:%S") for d in span), name="cli")
+    path = out / "ephemeris.json"
+    save_window(window, path, cfg)
+    return str(path)
 
 
 def main(argv=None) -> int:

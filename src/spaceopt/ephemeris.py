@@ -147,6 +147,15 @@ def open_de405():
         return Ephemeris(de405)
 
 
+def check_in_de405(utc: str, key: str, eph=None) -> None:
+    """ConfigError naming ``key`` and the date when the UTC date lies outside DE405."""
+    eph = eph if eph is not None else open_de405()
+    jd = J2000_JD + utc_to_tdb_seconds(utc, key) / DAY_S
+    jalpha, jomega = float(eph.jalpha), float(eph.jomega)
+    if not jalpha <= jd < jomega:
+        raise ConfigError(key, utc, f"outside DE405 (JD {jalpha} to {jomega} TDB)")
+
+
 def _granule_slice(n_sets: int, jalpha: float, days: float, jd_lo: float, jd_hi: float):
     k0 = int(np.floor((jd_lo - jalpha) / days))
     k1 = int(np.floor((jd_hi - jalpha) / days))     # granule holding jd_hi
@@ -167,10 +176,8 @@ def extract_window(start_utc: str, end_utc: str, name: str = "window", eph=None)
         raise ConfigError(f"ephemeris.{name}.end", end_utc, f"must be after start {start_utc}")
     jd_lo, jd_hi = J2000_JD + t_lo / DAY_S, J2000_JD + t_hi / DAY_S
     jalpha, jomega = float(eph.jalpha), float(eph.jomega)
-    for key, val, jd in ((f"ephemeris.{name}.start", start_utc, jd_lo),
-                         (f"ephemeris.{name}.end", end_utc, jd_hi)):
-        if not jalpha <= jd < jomega:
-            raise ConfigError(key, val, f"outside DE405 (JD {jalpha} to {jomega} TDB)")
+    check_in_de405(start_utc, f"ephemeris.{name}.start", eph)
+    check_in_de405(end_utc, f"ephemeris.{name}.end", eph)
 
     out = {}
     moon = np.asarray(eph.load("moon"))
