@@ -46,7 +46,7 @@ def test_convergence_error_carries_the_path_history():
     assert info.value.diagnosis["tau"] < 1.0
 
 
-def test_perturbations_are_switched_on_after_the_unperturbed_chain(tmp_path, capsys):
+def test_perturbations_are_switched_on_after_the_unperturbed_chain(tmp_path, capsys, monkeypatch):
     """--geopotential/--third-bodies/--epoch-utc: the OT solution continued into the perturbed
     problem (J2, Moon and Sun from a DE405 window cut for the transfer), both artifacts written."""
     rc = cli.main(E1 + ["--thrust-n", "15", "--out", str(tmp_path), "--geopotential", "j2",
@@ -64,3 +64,10 @@ def test_perturbations_are_switched_on_after_the_unperturbed_chain(tmp_path, cap
     t_end = (window["end_jd_tdb"] - window["start_jd_tdb"]) - 3       # days after the epoch, at least
     assert t_end > pert["scalars"]["tof_days"]
     assert "perturbed:" in capsys.readouterr().out
+    # the independent Cartesian re-propagation closes on the target with the perturbations,
+    # and misses it by far without them (so the check sees the force model)
+    from spaceopt.studies import verify
+    with_forces = verify.verify_ot(tmp_path / "ot_perturbed.json")
+    assert with_forces["final_position_vs_solver_km"] < 1.0 and abs(with_forces["final_a_error_km"]) < 0.05
+    monkeypatch.setattr(verify, "_perturbing_acceleration", lambda data: (lambda r, t: 0.0))
+    assert verify.verify_ot(tmp_path / "ot_perturbed.json")["final_position_vs_solver_km"] > 10.0

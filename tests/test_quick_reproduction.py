@@ -108,6 +108,14 @@ def test_multirev_artifacts_carry_provenance_samples_and_recording(quick):
     assert ver and all(abs(float(v["final_mass_error_kg"])) < 1e-2 for v in ver)
 
 
+def test_perturbed_solves_are_re_propagated_with_their_force_model(quick):
+    """The E9 J2 solve of the quick profile, re-propagated in Cartesian coordinates with J2 (63 rev)."""
+    ver = list(csv.DictReader(open(quick / "perturbed" / "verification.csv")))
+    assert [v["artifact"] for v in ver] == ["e9/j2.json"]
+    assert abs(float(ver[0]["final_a_error_km"])) < 0.01 and float(ver[0]["final_position_vs_solver_km"]) < 1.0
+    assert "An independent verifier re-propagates each of the 1 perturbed" in (quick / "perturbed" / "paper_section.tex").read_text()
+
+
 def test_changing_one_thrust_level_reruns_only_its_dependents(quick, tmp_path):
     override = tmp_path / "override.yaml"
     override.write_text(yaml.safe_dump({"multirev": {"cases": {"e1": {"ot_thrust_N": [16.0]}},

@@ -98,7 +98,7 @@ rule multirev_verify:
     log: f"{MRDIR}/logs/{{case}}_ot_{{thrust}}N_verify.log"
     benchmark: f"{MRDIR}/benchmarks/{{case}}_ot_{{thrust}}N_verify.tsv"
     resources: mem_mb=2000, runtime=30
-    script: "../scripts/multirev_verify.py"
+    script: "../scripts/verify_ot.py"
 
 
 def mr_verify_files():

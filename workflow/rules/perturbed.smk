@@ -191,15 +191,31 @@ def pt_stage_jsons():
     return out
 
 
+rule perturbed_verify:
+    input: json=f"{PTDIR}/{{solve}}.json", src=lib_sources("studies/verify", "forces", "ephemeris", "frames")
+    output: f"{PTDIR}/{{solve}}.verify.json"
+    wildcard_constraints: solve=r"(e5|e6|e7|e8|e9)/[^/]+"
+    log: f"{PTDIR}/logs/verify_{{solve}}.log"
+    benchmark: f"{PTDIR}/benchmarks/verify_{{solve}}.tsv"
+    resources: mem_mb=2000, runtime=30
+    script: "../scripts/verify_ot.py"
+
+
+def pt_verify_files():
+    """The independent Cartesian re-propagation of every solve the tables take."""
+    return sorted({p.replace(".json", ".verify.json") for p in pt_stage_jsons().values()})
+
+
 PT_TABLES = ["e5", "e6_date_scan", "e7", "e8", "e9"]
 
 rule perturbed_tables:
     input: **pt_stage_jsons(), _budget=f"{PTDIR}/e9_budget.json",
-           _pub="config/published/yun2023_perturbed.yaml",
+           _pub="config/published/yun2023_perturbed.yaml", _verify=pt_verify_files(),
            _src=lib_sources("report/compare", "studies/perturbed_report")
     output:
         **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},
         repro=f"{PTDIR}/reproduction.csv",
+        verify=f"{PTDIR}/verification.csv",
         md=f"{PTDIR}/tables.md",
         tex=f"{PTDIR}/tables/perturbed.tex",
     params: run=PT["run"], cases={c: {"models": PT["cases"][c]["models"]} for c in PT["cases"]},
@@ -232,6 +248,7 @@ rule perturbed_figures:
 
 rule perturbed_paper_section:
     input: repro=f"{PTDIR}/reproduction.csv", tables=f"{PTDIR}/tables/perturbed.tex",
+           verify=f"{PTDIR}/verification.csv",
            budget=f"{PTDIR}/e9_budget.json",
            figures=[f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()],
            **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},

@@ -5,9 +5,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).parent))
 from _step import run_step  # noqa: E402
 
-from spaceopt import artifacts  # noqa: E402
 from spaceopt.report import compare  # noqa: E402
 from spaceopt.report.tables import write_csv  # noqa: E402
+from spaceopt.studies.verify import verification_rows  # noqa: E402
 from spaceopt.studies import multirev_report as mr  # noqa: E402
 
 
@@ -22,10 +22,7 @@ def main(sm):
     pub = compare.published_lookup(sm.input._pub) if comparable else {}
     Path(sm.output.t413_md).write_text(mr.table_4_1_3_markdown(t413, pub))
     Path(sm.output.t413_tex).write_text(mr.table_4_1_3_latex(t413))
-    ver_rows = []
-    for p in sm.input._verify:
-        v = artifacts.read_json(p)
-        ver_rows.append({"artifact": v["artifact"], **v["verification"]})
+    ver_rows = verification_rows(sm.input._verify)
     cols = list(ver_rows[0]) if ver_rows else ["artifact"]
     write_csv(sm.output.verify, ver_rows, cols)
     rows = mr.reproduction_rows(sm.input._pub, anchor_rows, t413, comparable, stages)

@@ -31,7 +31,8 @@ def main(sm):
     Path(sm.output[0]).write_text(R.paper_section(rows, {}, budget, e6sum, list(sm.input.figures),
                                                   e8_count_start=sm.params.e8_count_start,
                                                   smoothing=sm.params.e8_smoothing,
-                                                  e8_steps=sm.params.e8_steps))
+                                                  e8_steps=sm.params.e8_steps,
+                                                  verify_rows=_read(sm.input.verify)))
 
 
 if __name__ == "__main__":

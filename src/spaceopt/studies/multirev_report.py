@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from .. import artifacts
 from ..report import compare
+from .verify import verification_sentence
 
 ANCHOR_QUANTITIES = {
     "lp": ("tof_days", "m_f_kg", "K_f_deg", "J_LP_m2s3", "dv_m_s", "T0_guess_N"),
@@ -162,12 +163,7 @@ def paper_section(repro_rows, verify_rows, anchor_rows, t413_rows, figures: list
             r"\caption{Table 4.1.3 reproduced: OT trajectories against thrust (100 revolutions, $L_0=300^\circ$); "
             r"first row: the $T_{min}$ trajectory.}\label{tab:t413}\end{table}"]
     if verify_rows:
-        worst = {k: max(abs(float(v[k])) for v in verify_rows)
-                 for k in ("final_a_error_km", "final_e_error", "final_i_error_deg", "final_mass_error_kg")}
-        out.append(f"An independent verifier re-propagates each of the {len(verify_rows)} OT trajectories in "
-                   "Cartesian coordinates with SciPy's DOP853 and the recorded thrust history: the worst final errors "
-                   f"are {worst['final_a_error_km']:.3g}~km in $a$, {worst['final_e_error']:.2g} in $e$, "
-                   f"{worst['final_i_error_deg']:.2g}$^\circ$ in $i$ and {worst['final_mass_error_kg']:.2g}~kg in mass.")
+        out.append(verification_sentence(verify_rows, "OT trajectories"))
     for fig in figures:
         out += [r"\begin{figure}[htbp]\centering",
                 f"\\includegraphics[width=\\linewidth]{{\\resultsdir/multirev/figures/{fig}.pdf}}",

@@ -21,6 +21,7 @@ import numpy as np
 from ..report import compare
 from ..report.paper import latex_escape, latex_number
 from .perturbed import summary
+from .verify import verification_sentence
 
 COLUMNS = {
     "e5": ["model", "m_f_kg", "tof_days", "K_f_deg"],
@@ -352,11 +353,12 @@ def e8_route_text(count_start: str, smoothing: dict, steps: list) -> str:
 
 
 def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figures: list, *,
-                  e8_count_start: str, smoothing: dict, e8_steps: list,
+                  e8_count_start: str, smoothing: dict, e8_steps: list, verify_rows=(),
                   resultsdir_macro=r"\resultsdir") -> str:
     """LaTeX fragment of the §4.2 section; every number comes from the artifacts or the config.
     ``e8_count_start``, ``smoothing``, ``e8_steps``: how each E8 count and model starts
-    (:func:`e8_route_text`)."""
+    (:func:`e8_route_text`); ``verify_rows``: the independent re-propagations
+    (:func:`spaceopt.studies.verify.verification_rows`)."""
     n_pass = sum(r["status"] == "pass" for r in rows)
     n_fail = sum(r["status"] == "fail" for r in rows)
     n_miss = sum(r["status"] == "missing" for r in rows)
@@ -373,7 +375,9 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
              "unperturbed extremal in the same way, so every date is an independent solve. "
              + e8_route_text(e8_count_start, smoothing, e8_steps)
              + f"Of the reproduction rows, {n_pass} pass, {n_fail} fail "
-             f"and {n_miss} were not produced in this run (Table~\\ref{{tab:scoreboard}}).", ""]
+             f"and {n_miss} were not produced in this run (Table~\\ref{{tab:scoreboard}}). "
+             + verification_sentence(list(verify_rows), "perturbed trajectories (its perturbing accelerations are "
+                                     "the solver's force model, evaluated at the re-propagated positions)"), ""]
     if budget:
         g = budget["egm96_gm"]
         lines += [r"\subsection{LEO $\Delta\Omega$ budget}",

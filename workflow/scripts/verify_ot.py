@@ -1,4 +1,4 @@
-"""Independent Cartesian re-propagation of one OT artifact (scipy DOP853)."""
+"""Independent Cartesian re-propagation of one OT artifact, §4.1 or §4.2 (scipy DOP853; spaceopt.studies.verify)."""
 import sys
 import time
 from pathlib import Path
@@ -13,7 +13,7 @@ from spaceopt.studies.verify import verify_ot  # noqa: E402
 def main(sm):
     t0 = time.perf_counter()
     res = verify_ot(sm.input.json)
-    artifacts.write_json(sm.output[0], {"verification": res, "artifact": Path(sm.input.json).name,
+    artifacts.write_json(sm.output[0], {"verification": res, "artifact": "/".join(Path(sm.input.json).parts[-2:]),
                                         "provenance": artifacts.provenance({}, time.perf_counter() - t0)})
 
 
