@@ -941,3 +941,16 @@ def test_e6_figures_break_the_lines_at_the_dates_left_out(tmp_path, monkeypatch)
         x, y = lines[0]
         assert x == [1, 2, 3, 4] and math.isnan(y[2]) and not any(map(math.isnan, y[:2] + y[3:]))
         assert any(ln[0] == [3, 3] for ln in lines[1:])             # the vertical mark at day 3
+
+
+def test_the_verification_sentence_states_the_worst_errors_and_the_perturbation_scale():
+    from spaceopt.studies.verify import verification_sentence
+    row = {"final_a_error_km": -0.2, "final_e_error": 1e-6, "final_i_error_deg": 3e-6, "final_mass_error_kg": 1e-5,
+           "final_position_vs_solver_km": 0.5}
+    assert verification_sentence([], "x") == ""
+    plain = verification_sentence([row], "OT trajectories")
+    assert "each of the 1 OT trajectories" in plain and "0.2~km in $a$" in plain and "0.5~km." in plain
+    assert "perturbations move" not in plain
+    text = verification_sentence([{**row, "final_position_without_perturbations_km": 50.0},
+                                  {**row, "final_position_without_perturbations_km": 25.0}], "perturbed trajectories")
+    assert "at most 2~\\% of the distance by which the perturbations move the end point" in text

@@ -7,7 +7,7 @@ from _step import run_step  # noqa: E402
 
 from spaceopt.report import compare  # noqa: E402
 from spaceopt.report.tables import write_csv  # noqa: E402
-from spaceopt.studies.verify import verification_rows  # noqa: E402
+from spaceopt.studies.verify import verification_rows, write_verification_csv  # noqa: E402
 from spaceopt.studies import multirev_report as mr  # noqa: E402
 
 
@@ -23,8 +23,7 @@ def main(sm):
     Path(sm.output.t413_md).write_text(mr.table_4_1_3_markdown(t413, pub))
     Path(sm.output.t413_tex).write_text(mr.table_4_1_3_latex(t413))
     ver_rows = verification_rows(sm.input._verify)
-    cols = list(ver_rows[0]) if ver_rows else ["artifact"]
-    write_csv(sm.output.verify, ver_rows, cols)
+    write_verification_csv(sm.output.verify, ver_rows)
     rows = mr.reproduction_rows(sm.input._pub, anchor_rows, t413, comparable, stages)
     compare.write_rows(sm.output.repro, rows)
 
