@@ -114,18 +114,6 @@ def test_dt_inferred_from_published_tables():
     assert fit["dt"] == pytest.approx(0.25, abs=1e-4)
 
 
-def test_methods_are_fast():
-    import time
-    for c in zc.CONTROLS:
-        for solve in (zc.solve_mp, zc.solve_dp):
-            ts = []
-            for _ in range(5):
-                t0 = time.process_time()
-                solve(X0, DT, c, A_MAX[c], 10)
-                ts.append(time.process_time() - t0)
-            assert np.median(ts) < 0.1, (solve.__name__, c, ts)
-
-
 @pytest.mark.parametrize("key,value", [("dt", -0.1), ("dt", "guess"), ("controls", ["bang"]), ("n_max", 0),
                                        ("x0", [1.0, 2.0])])
 def test_bad_config_raises_config_error(key, value):
