@@ -75,7 +75,7 @@ def pt_solve_inputs(w):
 rule perturbed_solve:
     input: unpack(pt_solve_inputs)
     output: pt_files("{case}/{model}")
-    wildcard_constraints: case="e5|e7|e9"
+    wildcard_constraints: case="e5|e7|e9", model="|".join(sorted(PT["models"]))   # not <model>.verify
     params: cfg=lambda w: pt_config_for(w.case, w.model), case="{case}", model="{model}",
             source=lambda w: pt_warm_source(w.case, w.model) or "chain", results=RESULTS
     log: f"{PTDIR}/logs/{{case}}_{{model}}.log"
