@@ -7,8 +7,10 @@ K_f, whether the engine is on at K = 0 and the number of burn arcs:
 
   multistart SEED SIGMA N   Newton homotopy (ε₁ → ε_f) from our costates × (1 + SIGMA·N(0, 1)),
                             p_LK (≈ 0 in ours) + 10⁻⁵·N(0, 1)
-  foldjump W_REF            LP → OT blend (3.3.1) in τ up to its fold, then the Newton homotopy
-                            at the OT problem from the last point of the path (a jump over the fold)
+  foldjump W_REF[,S] …      LP → OT blend (3.3.1) in τ up to its fold, then the Newton homotopy
+                            at the OT problem from the last point of the path (a jump over the fold);
+                            S scales the LP costates the blend starts from (default 2: the doubling
+                            of spec 01 §3.3 erratum (a); the Newton homotopy absorbs any mismatch)
   l0 L0_DEG …               chain at another L₀ (L_f = L₀ + 1800°), then continued in L₀ to 160°
   variant NAME …            other readings of Table 4.2.1.1 (final_lonperi: ω_f = 90° − Ω_f;
                             earth_radius: altitudes over R = 6378.137 km instead of 6371 km)
@@ -72,17 +74,21 @@ def multistart(seed, sigma, n):
         solve_from(z0, f"start {k}")
 
 
-def foldjump(w_ref):
+def foldjump(*specs):
     lp = chain.solve_lp(TR, QUIET, label="lp")
     sh = chain.shooting_for("ot", "lp", TR)
-    try:
-        z, _ = chain._run(sh, chain.start_vector(sh, lp.doubled_costates(), lp.K_f),
-                          {**PRM, "blend_ref": jnp.asarray(float(w_ref))}, "blend", QUIET, "tau")
-        print("the blend reached tau = 1 (no fold)")
-    except ConvergenceError as exc:
-        print(f"the blend stops at tau = {exc.diagnosis['tau']:.6f}")
-        z = np.asarray(exc.diagnosis["z"])
-    solve_from(z, "after the fold")
+    for spec in specs:
+        w_ref, scale = (list(map(float, spec.split(","))) + [2.0])[:2]
+        costates = {k: scale * v for k, v in lp.costates().items()}
+        tag = f"W_ref={w_ref:g} S={scale:g}"
+        try:
+            z, _ = chain._run(sh, chain.start_vector(sh, costates, lp.K_f),
+                              {**PRM, "blend_ref": jnp.asarray(w_ref)}, "blend", QUIET, "tau")
+            print(f"{tag}: the blend reached tau = 1 (no fold)", flush=True)
+        except ConvergenceError as exc:
+            print(f"{tag}: the blend stops at tau = {exc.diagnosis['tau']:.6f}", flush=True)
+            z = np.asarray(exc.diagnosis["z"])
+        solve_from(z, f"{tag}, after the fold")
 
 
 def l0(*l0_deg):
