@@ -92,10 +92,13 @@ def bench_d4(cfg: dict, repeats: int) -> dict:
 
 def bench_d2(cfg: dict, repeats: int) -> dict:
     from spaceopt.discrete import libration_lp as ll
-    pts = ll.libration_points(cfg["mu"])
-    A = ll.jacobian(cfg["mu"], *pts["L1"])
+    mu = ll.mass_ratio(cfg)
+    pts = ll.libration_points(mu)
+    A = ll.jacobian(mu, *pts["L1"])
     cc = cfg["correction"]
-    lp = _timed(lambda: ll.solve_correction(A, cc["Y0"], cc["N"], cc["T"] / cc["N"], "l1"), repeats)
+    K = cc["N"] + cc.get("steps_offset", 0)            # the study's discretisation (config comment)
+    lp = _timed(lambda: ll.solve_correction(A, cc["Y0"], K, cc["T"] / cc["N"], "l1",
+                                            first_control=cc.get("first_control", 0)), repeats)
     study = _timed(lambda: ll.run_study(cfg), 1)
     print(f"D2 first LP {lp['median_wall_s'] * 1e3:.1f} ms; whole study {study['median_wall_s']:.2f} s", flush=True)
     return {"first_L1_lp": lp, "study_no_figures": study}
