@@ -874,6 +874,36 @@ def test_the_flat_march_halves_its_step_where_the_extrapolated_start_misses_the_
     assert z == pytest.approx([y_root ** 2, y_root], abs=1e-12) and stats.residuals > 0
 
 
+def test_the_flat_march_steps_just_past_the_root_its_secant_predicts():
+    """flat_step 0.005, a valley that narrows the chords' reach: f = (sinh(a d)/a, g(y) + 100 d²),
+    d = x − κ y², a = 2·10⁶, κ = 2.432, g(y) = −5.29·10⁻⁷ + 7.6·10⁻⁴ y (root y* = 0.000696). The
+    march from (0, 0) reaches the valley only after three halvings, at y = 0.000625
+    (g = −5.4·10⁻⁸), and its next start, extrapolated a step of 0.000625 on, misses it (a d = 3.8;
+    the chord diverges): without more, that side ends without a bracket, and so does the other.
+    The secant through the two valley points puts y* 7·10⁻⁵ ahead; a step of 1.5 times that lands
+    past it on the valley, and regula falsi finds it (E8 500 rev, full model, single shooting,
+    from scratch: the same numbers and the same failure; docs/perturbed-e6-e7-e8.md, "eighteenth
+    session"). Newton's polish is switched off (max_final 0) to isolate the march."""
+    import numpy as np
+
+    a, kappa, g0, slope = 2e6, 2.432, -5.29e-7, 7.6e-4
+
+    def residual(z, tau):
+        d = z[0] - kappa * z[1] ** 2
+        with np.errstate(over="ignore", invalid="ignore"):
+            return np.array([np.sinh(a * d) / a, g0 + slope * z[1] + 100.0 * d ** 2]), True
+
+    def jacobian(z):
+        d, y = z[0] - kappa * z[1] ** 2, z[1]
+        with np.errstate(over="ignore"):
+            ch = np.cosh(a * d)
+        return np.array([[ch, -2.0 * kappa * y * ch], [200.0 * d, slope - 400.0 * kappa * y * d]])
+
+    z, stats = _final_polish(residual, jacobian, tol_final=1e-12, flat_step=0.005, max_final=0)
+    assert z[1] == pytest.approx(-g0 / slope, abs=1e-9) and abs(z[0] - kappa * z[1] ** 2) < 1e-12
+    assert stats.residuals < 30
+
+
 def test_the_flat_root_restarts_from_where_its_last_round_stopped():
     """flat_step, a steep valley: f = (x − y², G(y) + 100 (x − y²)²), d = x − y², with
     G(y) = 10⁻⁶ (e^{300 (y − 0.05)} − 1)/300: g(0) = −3.3·10⁻⁹, nearly flat to y ≈ 0.04, then

@@ -127,6 +127,7 @@ GROWTH = ("iterations", "residual")
 POLISH_FAILED = "final Newton polish did not converge"     # the diagnosis reason (chain._run_multiple)
 ACCEPTED_UPDATES = ("always", "revert")
 ITERATION_GROWTH = {1: 2.0, 2: 1.5, 3: 1.2}
+SECANT_OVERSHOOT = 1.5      # the flat march's step past the root its secant predicts (_march_valley)
 
 
 def _fingerprint(z0, tau0, tau1) -> str:
@@ -542,7 +543,7 @@ class Continuation:
         self._log(f"  flat direction (sigma {S[-1]:.2e} of {S[0]:.2e}): g(0) = {g:+.3e}, marching s by {newton:+.3g}")
         pts, used = self._march_valley(from_origin, v, origin, newton, opt.flat_max_steps)
         if np.sign(pts[-1][2]) == np.sign(g) and used < opt.flat_max_steps:
-            self._log(f"  |g| more than doubled: the root lies the other way, marching s by {-newton:+.3g}")
+            self._log(f"  no sign change of g that way: marching s by {-newton:+.3g}")
             pts, _ = self._march_valley(from_origin, v, origin, -newton, opt.flat_max_steps - used)
         if np.sign(pts[-1][2]) == np.sign(g):
             return None
@@ -575,7 +576,13 @@ class Continuation:
         extrapolated from the last two points (``valley(x)`` → ((x, |f_r|, g, chord step), on the
         valley)): (points, valley points tried, at most ``budget``). Where a start's chords miss
         the valley, the step halves from the last valley point (the extrapolation's error falls
-        as the step squared; to step/8, then the march ends). It stops at a sign change of g (the
+        as the step squared; to step/8, then the march ends). Where the secant through the last
+        two valley points puts the root ahead, closer than the step, the step is cut to
+        ``SECANT_OVERSHOOT`` times that distance: it then lands just past the root, and its start
+        lies near the valley (E8 500, single shooting, from scratch: g(0) −5.3e-7, g −5.3e-8 at
+        s = +0.000625 after three halvings, the secant's root 7e-5 further on; the next full step
+        missed the valley, and the march ended without a bracket; docs/perturbed-e6-e7-e8.md,
+        "eighteenth session"). It stops at a sign change of g (the
         last two points bracket the root) or where |g| exceeds 2 |g(0)| with g(0)'s sign: the
         valley's curvature outweighs its slope σ_min, and the root lies the other way
         (E8 450, 4×4 → full with h_max 0.1, docs/perturbed-e6-e7-e8.md "twelfth session":
@@ -585,7 +592,11 @@ class Continuation:
         not at −0.01; flat_step 0.0025 does, and brackets the root in [−0.01, −0.0075])."""
         pts, g0, h = [origin], origin[2], step
         for tried in range(1, budget + 1):
-            (s1, x1, _), prev = pts[-1], pts[-2] if len(pts) > 1 else None
+            (s1, x1, g1), prev = pts[-1], pts[-2] if len(pts) > 1 else None
+            if prev is not None and g1 != prev[2]:
+                ahead = -g1 * (s1 - prev[0]) / (g1 - prev[2])           # the secant's root, from s1
+                if ahead * h > 0 and SECANT_OVERSHOOT * abs(ahead) < abs(h):
+                    h = SECANT_OVERSHOOT * ahead
             s = s1 + h
             start = x1 + h * (v if prev is None else (x1 - prev[1]) / (s1 - prev[0]))
             (x, reg, g, dist), on = valley(start)
