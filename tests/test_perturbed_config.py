@@ -939,6 +939,40 @@ def test_the_flat_root_restarts_from_where_its_last_round_stopped():
     assert z == pytest.approx([y_root ** 2, y_root], abs=1e-7) and stats.jacobians == 6
 
 
+def test_a_round_without_a_bracket_hands_its_point_nearest_the_root_to_the_next_round():
+    """flat_step 0.04, a valley whose chords need a fresh Jacobian: f = (e^{b y} (x − y²),
+    10⁻⁶ (y − y*)), b = 100, y* = 0.009. The chords hold J from y = 0, whose slope 1 in x is
+    e^{b y} on the valley, so they contract only for y < ln 2 / b ≈ 0.0069: the march reaches
+    the valley at y = 0.005 (g −4·10⁻⁹ of g(0) −9·10⁻⁹), every start beyond it misses, and the
+    other side moves away from the root; no bracket, and one round fails. A second round from
+    y = 0.005, with the Jacobian there, reaches y* at once (E8 500 rev, full model, single
+    shooting, from scratch: docs/perturbed-e6-e7-e8.md, "eighteenth session"). Newton's polish
+    is switched off (max_final 0) to isolate the rounds."""
+    import numpy as np
+
+    from spaceopt.errors import ConvergenceError
+
+    b, y_root = 100.0, 0.009
+
+    def residual(z, tau):
+        with np.errstate(over="ignore", invalid="ignore"):
+            return np.array([np.exp(b * z[1]) * (z[0] - z[1] ** 2), 1e-6 * (z[1] - y_root)]), True
+
+    def jacobian(z):
+        d, y = z[0] - z[1] ** 2, z[1]
+        return np.exp(b * y) * np.array([[1.0, b * d - 2.0 * y], [0.0, 1e-6 * np.exp(-b * y)]])
+
+    def polish(rounds):
+        return _final_polish(residual, jacobian, tol_final=1e-14, flat_step=0.04, max_final=0,
+                             flat_restarts=rounds)
+
+    with pytest.raises(ConvergenceError, match="final Newton polish"):
+        polish(rounds=1)
+    z, stats = polish(rounds=3)
+    assert np.abs(residual(z, 1.0)[0]).max() < 1e-12 and stats.jacobians == 4
+    assert z[1] == pytest.approx(y_root, abs=1e-6)          # |g| 1e-13 at slope 1e-6
+
+
 def test_e8_figure_breaks_the_line_at_a_missing_count(tmp_path, monkeypatch):
     """Fig. 4.2.2.5: a model without a count the others have (the full model at 450) gets a gap
     there, not a segment bridging it; models keep the rows' order."""

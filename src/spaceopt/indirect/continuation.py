@@ -430,18 +430,25 @@ class Continuation:
         the Jacobian there, while each round at least halves |F| (``flat_restarts`` rounds at
         most: the march's chords hold J fixed, and far from where it was taken they stop
         contracting before regula falsi has closed its bracket; E8 450, single shooting:
-        docs/perturbed-e6-e7-e8.md, "fifteenth session")."""
+        docs/perturbed-e6-e7-e8.md, "fifteenth session"). A round whose march found no bracket
+        but a valley point with at most half the origin's |g| hands that point, not a root, to
+        the next round, without Newton in between."""
         opt = self.opt
         z, J, F, nF = self._newton_polish(z, J, F, tau, solve, opt.step_rcond)
         for round_ in range(opt.flat_restarts if opt.flat_step > 0 else 0):
             if nF <= opt.tol_final * 1e3:
                 break
-            root = self._flat_root(z, J, F, tau, later_round=round_ > 0)
-            if root is None:
+            found = self._flat_root(z, J, F, tau, later_round=round_ > 0)
+            if found is None:
                 break
+            root, bracketed = found
             f, J_root, _, ok = self._eval(root, tau, final=True)
             if not ok or not np.all(np.isfinite(f)):
                 break
+            if not bracketed:
+                # no bracket, but a valley point nearer the root: the next round from there
+                z, J, F, nF = root, J_root, f, _norm(f)
+                continue
             z_r, J_r, F_r, n_r = self._newton_polish(root, J_root, f, tau, solve, 0.0, at_root=True)
             if n_r >= nF:
                 break
@@ -484,8 +491,8 @@ class Continuation:
         return z, J, F, nF
 
     def _flat_root(self, z, J, F, tau, later_round=False):
-        """A root of f(·, τ) along the flattest direction of J (Lyapunov–Schmidt; module
-        docstring), or None. With J = U diag(σ) Vᵀ, v and u its last singular vectors: on the
+        """(x, True): a root of f(·, τ) along the flattest direction of J (Lyapunov–Schmidt; module
+        docstring); (x, False): no root, but a point nearer one (:meth:`_nearer_root`); or None. With J = U diag(σ) Vᵀ, v and u its last singular vectors: on the
         valley {x : v·(x − z) = s, U_rᵀ f(x) = 0} (U_r: every left vector but u) f reduces to the
         scalar g(s) = u·f. Each valley point by chord steps with J held fixed, x ← x −
         V_r diag(σ_r)⁻¹ U_rᵀ f(x) (they leave s unchanged); s marches from 0 in Newton's
@@ -502,8 +509,8 @@ class Continuation:
         negligible step (E8 450, single shooting at τ = 1: |f_r| 1.2e-8 at its floor, mostly on
         the σ_max = 7e4 row of p_t, a step of 3e-13, against 1e-2 |g| = 8.3e-9;
         docs/perturbed-e6-e7-e8.md, "fourteenth session").
-        Where the chord through z does not reach the valley, its best point if it at least halved
-        |f|₂, else None. Residual evaluations only (``residual``), no Jacobians."""
+        Where the chord through z does not reach the valley, (its best point, True) if it at least
+        halved |f|₂, else None. Residual evaluations only (``residual``), no Jacobians."""
         opt = self.opt
         U, S, Vt = np.linalg.svd(J)
         u, v, Ur, Sr, Vr = U[:, -1], Vt[-1], U[:, :-1], S[:-1], Vt[:-1]
@@ -533,7 +540,7 @@ class Continuation:
             gain = np.hypot(reg, g) < 0.5 * np.linalg.norm(F)
             self._log(f"  flat direction (sigma {S[-1]:.2e}): the valley through the point not reached "
                       f"(|f_r| {reg:.2e}, chord step {dist:.1e}, g {g:.2e}){'; its chord point kept' if gain else ''}")
-            return x if gain else None
+            return (x, True) if gain else None
         origin, g0 = (0.0, x, g), g
 
         def from_origin(x):
@@ -542,11 +549,13 @@ class Continuation:
         newton = -np.sign(g) * (min(opt.flat_step, abs(g) / S[-1]) if later_round else opt.flat_step)
         self._log(f"  flat direction (sigma {S[-1]:.2e} of {S[0]:.2e}): g(0) = {g:+.3e}, marching s by {newton:+.3g}")
         pts, used = self._march_valley(from_origin, v, origin, newton, opt.flat_max_steps)
+        marched = pts[1:]
         if np.sign(pts[-1][2]) == np.sign(g) and used < opt.flat_max_steps:
             self._log(f"  no sign change of g that way: marching s by {-newton:+.3g}")
             pts, _ = self._march_valley(from_origin, v, origin, -newton, opt.flat_max_steps - used)
+            marched += pts[1:]
         if np.sign(pts[-1][2]) == np.sign(g):
-            return None
+            return self._nearer_root(marched, g0)
         # regula falsi (Illinois) on the bracket: g is not monotone on the scale of a step
         # (E8 500: g = −6.9e-8 at s = −0.025, −1.2e-7 at the plain secant's −0.0230)
         (sa, xa, ga), (sb, xb, gb) = pts[-2], pts[-1]
@@ -569,7 +578,20 @@ class Continuation:
                 sb, xb, gb, ga = s, x, g, 0.5 * ga
             else:
                 (sa, xa, ga), (sb, xb, gb) = (sb, xb, gb), (s, x, g)
-        return best[1]
+        return best[1], True
+
+    def _nearer_root(self, marched, g0):
+        """Where the march found no sign change: (its valley point of least |g|, False) where
+        that |g| is at most half |g(0)|, else None. The chords hold J at the march's origin and
+        reach the valley only within a short distance of it where the valley bends; a new round
+        from that point, with the Jacobian there, reaches further (E8 500, single shooting, from
+        scratch: g(0) −5.3e-7, −5.3e-8 at s = +0.000625, every start beyond it off the valley;
+        docs/perturbed-e6-e7-e8.md, "eighteenth session")."""
+        s, x, g = min(marched, key=lambda p: abs(p[2]), default=(0.0, None, g0))
+        if abs(g) > 0.5 * abs(g0):
+            return None
+        self._log(f"  no bracket; the next round from s = {s:+.4g} (g = {g:+.3e}), with the Jacobian there")
+        return x, False
 
     def _march_valley(self, valley, v, origin, step, budget):
         """March s along the valley from ``origin`` = (0, x, g(0)) by ``step``, each start
