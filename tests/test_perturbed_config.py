@@ -881,9 +881,11 @@ def test_the_flat_march_steps_just_past_the_root_its_secant_predicts():
     (g = −5.4·10⁻⁸), and its next start, extrapolated a step of 0.000625 on, misses it (a d = 3.8;
     the chord diverges): without more, that side ends without a bracket, and so does the other.
     The secant through the two valley points puts y* 7·10⁻⁵ ahead; a step of 1.5 times that lands
-    past it on the valley, and regula falsi finds it (E8 500 rev, full model, single shooting,
-    from scratch: the same numbers and the same failure; docs/perturbed-e6-e7-e8.md, "eighteenth
-    session"). Newton's polish is switched off (max_final 0) to isolate the march."""
+    past it on the valley, and regula falsi finds it. Modelled on the numbers of E8 500 rev, full
+    model, single shooting, from scratch; there the point at 0.000625 was not exact (|f_r| 3.2e-4,
+    accepted by the chord-step test) and the cut step missed the valley too: what converged that
+    case is the next round (docs/perturbed-e6-e7-e8.md, "eighteenth session"). Newton's polish is
+    switched off (max_final 0) to isolate the march."""
     import numpy as np
 
     a, kappa, g0, slope = 2e6, 2.432, -5.29e-7, 7.6e-4

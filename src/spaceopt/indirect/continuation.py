@@ -601,9 +601,10 @@ class Continuation:
         as the step squared; to step/8, then the march ends). Where the secant through the last
         two valley points puts the root ahead, closer than the step, the step is cut to
         ``SECANT_OVERSHOOT`` times that distance: it then lands just past the root, and its start
-        lies near the valley (E8 500, single shooting, from scratch: g(0) −5.3e-7, g −5.3e-8 at
-        s = +0.000625 after three halvings, the secant's root 7e-5 further on; the next full step
-        missed the valley, and the march ended without a bracket; docs/perturbed-e6-e7-e8.md,
+        lies near the valley where the valley point is exact (modelled on E8 500, single
+        shooting, from scratch: g(0) −5.3e-7, −5.3e-8 at s = +0.000625 after three halvings; that
+        point's chords had stalled at |f_r| 3.2e-4, and the cut step missed the valley as the full
+        one did: :meth:`_nearer_root` converged that case; docs/perturbed-e6-e7-e8.md,
         "eighteenth session"). It stops at a sign change of g (the
         last two points bracket the root) or where |g| exceeds 2 |g(0)| with g(0)'s sign: the
         valley's curvature outweighs its slope σ_min, and the root lies the other way
