@@ -762,6 +762,16 @@ def _final_polish(residual, jacobian, **options):
     return cont.run(np.zeros(2), tau0=1.0)[0], cont.stats
 
 
+def _polish_needing_rounds(residual, jacobian, **options):
+    """(z, statistics) of :func:`_final_polish` with three rounds of the flat root
+    (``flat_restarts``), after checking that one round alone fails."""
+    from spaceopt.errors import ConvergenceError
+
+    with pytest.raises(ConvergenceError, match="final Newton polish"):
+        _final_polish(residual, jacobian, flat_restarts=1, **options)
+    return _final_polish(residual, jacobian, flat_restarts=3, **options)
+
+
 def test_a_failed_polish_finds_the_root_along_the_flattest_direction():
     """flat_step: f = (x − y², 10⁻⁶ (y − 0.01) + 100 (x − y²)²) from (0, 0). The flat direction is y
     (σ = 10⁻⁶); Newton's step lands off the valley x = y², where the second row's curvature
@@ -917,8 +927,6 @@ def test_the_flat_root_restarts_from_where_its_last_round_stopped():
     "fifteenth session")."""
     import numpy as np
 
-    from spaceopt.errors import ConvergenceError
-
     b, y_root = 300.0, 0.05
 
     def residual(z, tau):
@@ -931,13 +939,7 @@ def test_the_flat_root_restarts_from_where_its_last_round_stopped():
         with np.errstate(over="ignore", invalid="ignore"):
             return np.array([[1.0, -2.0 * y], [200.0 * d, 1e-6 * np.exp(b * (y - y_root)) - 400.0 * y * d]])
 
-    def polish(rounds):
-        return _final_polish(residual, jacobian, tol_final=1e-14, flat_step=0.004, flat_chord=3,
-                             flat_restarts=rounds)
-
-    with pytest.raises(ConvergenceError, match="final Newton polish"):
-        polish(rounds=1)
-    z, stats = polish(rounds=3)
+    z, stats = _polish_needing_rounds(residual, jacobian, tol_final=1e-14, flat_step=0.004, flat_chord=3)
     assert z == pytest.approx([y_root ** 2, y_root], abs=1e-7) and stats.jacobians == 6
 
 
@@ -952,8 +954,6 @@ def test_a_round_without_a_bracket_hands_its_point_nearest_the_root_to_the_next_
     is switched off (max_final 0) to isolate the rounds."""
     import numpy as np
 
-    from spaceopt.errors import ConvergenceError
-
     b, y_root = 100.0, 0.009
 
     def residual(z, tau):
@@ -964,13 +964,7 @@ def test_a_round_without_a_bracket_hands_its_point_nearest_the_root_to_the_next_
         d, y = z[0] - z[1] ** 2, z[1]
         return np.exp(b * y) * np.array([[1.0, b * d - 2.0 * y], [0.0, 1e-6 * np.exp(-b * y)]])
 
-    def polish(rounds):
-        return _final_polish(residual, jacobian, tol_final=1e-14, flat_step=0.04, max_final=0,
-                             flat_restarts=rounds)
-
-    with pytest.raises(ConvergenceError, match="final Newton polish"):
-        polish(rounds=1)
-    z, stats = polish(rounds=3)
+    z, stats = _polish_needing_rounds(residual, jacobian, tol_final=1e-14, flat_step=0.04, max_final=0)
     assert np.abs(residual(z, 1.0)[0]).max() < 1e-12 and stats.jacobians == 4
     assert z[1] == pytest.approx(y_root, abs=1e-6)          # |g| 1e-13 at slope 1e-6
 
