@@ -441,11 +441,11 @@ class Continuation:
             found = self._flat_root(z, J, F, tau, later_round=round_ > 0)
             if found is None:
                 break
-            root, bracketed = found
+            root, for_newton = found
             f, J_root, _, ok = self._eval(root, tau, final=True)
             if not ok or not np.all(np.isfinite(f)):
                 break
-            if not bracketed:
+            if not for_newton:
                 # no bracket, but a valley point nearer the root: the next round from there
                 z, J, F, nF = root, J_root, f, _norm(f)
                 continue
@@ -491,10 +491,11 @@ class Continuation:
         return z, J, F, nF
 
     def _flat_root(self, z, J, F, tau, later_round=False):
-        """(x, True): a root of f(·, τ) along the flattest direction of J (Lyapunov–Schmidt; module
-        docstring); (x, False): no root, but a point nearer one (:meth:`_nearer_root`); or None. With J = U diag(σ) Vᵀ, v and u its last singular vectors: on the
-        valley {x : v·(x − z) = s, U_rᵀ f(x) = 0} (U_r: every left vector but u) f reduces to the
-        scalar g(s) = u·f. Each valley point by chord steps with J held fixed, x ← x −
+        """(x, True): a point for Newton, a root of f(·, τ) along the flattest direction of J
+        (Lyapunov–Schmidt; module docstring); (x, False): no root, but a point nearer one, for the
+        next round (:meth:`_nearer_root`); or None. With J = U diag(σ) Vᵀ, v and u its last
+        singular vectors: on the valley {x : v·(x − z) = s, U_rᵀ f(x) = 0} (U_r: every left vector
+        but u) f reduces to the scalar g(s) = u·f. Each valley point by chord steps with J held fixed, x ← x −
         V_r diag(σ_r)⁻¹ U_rᵀ f(x) (they leave s unchanged); s marches from 0 in Newton's
         direction (−sign g(0)), by ``flat_step`` (in a ``later_round`` of :meth:`_polish`, which
         starts near a root, by Newton's distance |g(0)|/σ_min where that is shorter), until g
@@ -587,9 +588,10 @@ class Continuation:
         from that point, with the Jacobian there, reaches further (E8 500, single shooting, from
         scratch: g(0) −5.3e-7, −5.3e-8 at s = +0.000625, every start beyond it off the valley;
         docs/perturbed-e6-e7-e8.md, "eighteenth session")."""
-        s, x, g = min(marched, key=lambda p: abs(p[2]), default=(0.0, None, g0))
-        if abs(g) > 0.5 * abs(g0):
+        nearest = min(marched, key=lambda p: abs(p[2]), default=None)
+        if nearest is None or abs(nearest[2]) > 0.5 * abs(g0):
             return None
+        s, x, g = nearest
         self._log(f"  no bracket; the next round from s = {s:+.4g} (g = {g:+.3e}), with the Jacobian there")
         return x, False
 
