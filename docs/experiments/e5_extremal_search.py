@@ -20,6 +20,10 @@ K_f, whether the engine is on at K = 0 and the number of burn arcs:
                             Newton homotopy from the BEST grid points
   thrust T …                chain at thrust T, then continued in the thrust to 0.5 N
   smoothing EPS …           ours continued upwards in ε (is the published one a smoothed solution?)
+  neighbour DATE …          perturbed (4×4 + Moon + Sun): the E6 scan's extremal of DATE
+                            (results/perturbed/e6/DATE.json) continued in the departure epoch to
+                            9 May, the E6 neighbour route (does a neighbouring family reach the
+                            published perturbed 9 May extremal?)
 
 Run from the repository root after ``./dev reproduce`` has written results/perturbed/e5/:
 ``.venv/bin/python docs/experiments/e5_extremal_search.py multistart 0 0.3 8``.
@@ -164,6 +168,18 @@ def smoothing(*eps):
             break
 
 
+def neighbour(*dates):
+    tr = P.transfer_from_config(PC, "e5", "g44_moon_sun",
+                                ephemeris=P.ephemeris_path("results", PC["cases"]["e5"]["ephemeris"]))
+    for date in dates:
+        try:
+            sol = P.warm_start(P.load(f"results/perturbed/e6/{date}.json"), tr, f"{date} -> 9 May",
+                               **P.warm_start_kwargs(PC, "e5", "g44_moon_sun"))
+            report(sol, f"from {date}")
+        except ConvergenceError as exc:
+            print(f"from {date}: no convergence ({exc})", flush=True)
+
+
 if __name__ == "__main__":
     {"multistart": multistart, "foldjump": foldjump, "l0": l0, "variant": variant, "printed": printed,
-     "thrust": thrust, "smoothing": smoothing}[sys.argv[1]](*sys.argv[2:])
+     "thrust": thrust, "smoothing": smoothing, "neighbour": neighbour}[sys.argv[1]](*sys.argv[2:])
