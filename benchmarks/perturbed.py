@@ -6,7 +6,7 @@ Three parts, all written to ``results/benchmarks/perturbed.json`` (parts not rer
    results/perturbed/**/<stage>.json): each E5/E7/E9 chain, every E6 date and the scan total,
    every E8 solve, and the DAG's whole route to each perturbed E8 solve (``e8_route_s``).
 2. ``propagation``: the cost of one shooting evaluation (trajectory + sensitivity columns) of the
-   E8 problem, unperturbed and perturbed (4×4 + Moon + Sun), over ``--revs`` revolutions at a
+   E8 problem, unperturbed, J2 and perturbed (4×4 + Moon + Sun), over ``--revs`` revolutions at a
    fixed guess, after compilation, per revolution. With ``--baseline REV`` the same measurement
    runs on the library as of git revision REV (``git archive``, in a temporary directory) *side
    by side*: one worker process per source tree, each compiles once, then the parent alternates
@@ -44,6 +44,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ("unperturbed", "g44_moon_sun")
+PROPAGATION_MODELS = ("unperturbed", "j2", "g44_moon_sun")
 PUBLISHED = ROOT / "config/published/yun2023_perturbed.yaml"
 TARGET_S = 600.0
 CALLER_XLA_FLAGS = os.environ.get("XLA_FLAGS")     # read before spaceopt is imported (it adds a flag)
@@ -124,7 +125,7 @@ def _worker(revs: float) -> None:
     pc = _perturbed_config()
     eph = P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"])
     cases = {}
-    for model in MODELS:
+    for model in PROPAGATION_MODELS:
         tr = P.transfer_from_config(pc, "e8", model, ephemeris=eph, n_rev=revs)
         sh = chain.shooting_for("ot", "eps", tr)
         prm = tr.params()
@@ -159,7 +160,7 @@ class _Worker:
         self.p = subprocess.Popen([sys.executable, __file__, "--worker", "--revs", str(revs)],
                                   stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env)
         self.first = {}
-        for _ in MODELS:
+        for _ in PROPAGATION_MODELS:
             d = json.loads(self.p.stdout.readline())
             self.first[d["model"]] = d
 
@@ -203,9 +204,9 @@ def propagation(revs: float, rounds: int, baseline: str | None) -> dict:
     for name, src in trees.items():                  # compile one tree at a time (2 cores)
         print(f"[propagation] compiling {name} ({src})", file=sys.stderr, flush=True)
         workers[name] = _Worker(src, revs)
-    times = {name: {m: [] for m in MODELS} for name in workers}
+    times = {name: {m: [] for m in PROPAGATION_MODELS} for name in workers}
     for r in range(rounds):
-        for m in MODELS:
+        for m in PROPAGATION_MODELS:
             for name, w in workers.items():
                 times[name][m].append(w.run(m))
         print(f"[propagation] round {r + 1}/{rounds}", file=sys.stderr, flush=True)
@@ -214,7 +215,7 @@ def propagation(revs: float, rounds: int, baseline: str | None) -> dict:
                    "already held the program; per-rev times are after compilation, min and median over rounds"}
     for name, w in workers.items():
         out["trees"][name] = {}
-        for m in MODELS:
+        for m in PROPAGATION_MODELS:
             ts = times[name][m]
             out["trees"][name][m] = {
                 "first_call_s": w.first[m]["first_call_s"], "integration_steps": w.first[m]["integration_steps"],
@@ -224,7 +225,7 @@ def propagation(revs: float, rounds: int, baseline: str | None) -> dict:
     if baseline:
         out["speedup_baseline_over_current"] = {}
         out["agreement"] = {}
-        for m in MODELS:
+        for m in PROPAGATION_MODELS:
             ratios = [b / c for b, c in zip(times["baseline"][m], times["current"][m])]
             out["speedup_baseline_over_current"][m] = {
                 "paired_median": statistics.median(ratios), "paired_min": min(ratios), "paired_max": max(ratios),
