@@ -157,9 +157,10 @@ def perturbation_tnr(K, x, prm, blend=None):
     from the equinoctial frame of the MEE (the rows of Appendix B.1's position formula), with
     s² = 1 + i_x² + i_y²:
 
-        f̂ = (1 + i_x² − i_y², 2 i_x i_y, −2 i_y)/s²,   ĝ = (2 i_x i_y, 1 − i_x² + i_y², 2 i_x)/s²,
-        e_r = cos L f̂ + sin L ĝ,   e_t = cos L ĝ − sin L f̂,   e_n = f̂×ĝ = (2 i_y, −2 i_x, 1 − i_x² − i_y²)/s²,
-        r = (p/q) e_r.
+        f̂ = (1 + i_x² − i_y², 2 i_x i_y, −2 i_y)/s²,
+        ĝ = (2 i_x i_y, 1 − i_x² + i_y², 2 i_x)/s²,
+        e_r = cos L f̂ + sin L ĝ,   e_t = cos L ĝ − sin L f̂,   r = (p/q) e_r,
+        e_n = f̂×ĝ = (2 i_y, −2 i_x, 1 − i_x² − i_y²)/s².
 
     Fewer operations mean fewer XLA kernels under the solver's nested derivatives (measured
     side by side: the J2 field with its sensitivity columns 1.39× faster, 4×4 + Moon + Sun
