@@ -132,15 +132,6 @@ def test_third_body_zero_at_geocentre_and_gradient():
     assert np.allclose(Fo.third_body_acceleration(r, rb, MU_MOON), jax.grad(pot)(r), rtol=1e-9, atol=0)
 
 
-def test_third_bodies_stacked_are_the_bodies_one_by_one():
-    """The model's form: bodies stacked (n, 3) with mu (n,) give one row per body."""
-    r = jnp.array([4.0e7, -1.0e7, 5.0e6])
-    rb = jnp.array([[3.8e8, 1.0e7, -2.0e7], [1.4e11, -4.0e10, -2.0e10]])
-    rows = Fo.third_body_acceleration(r, rb, jnp.array([MU_MOON, MU_SUN]))
-    for i, mu in enumerate((MU_MOON, MU_SUN)):
-        np.testing.assert_allclose(rows[i], Fo.third_body_acceleration(r, rb[i], mu), rtol=1e-15, atol=0)
-
-
 @pytest.mark.parametrize("body,mu,lo,hi", [("moon", MU_MOON, 3.0e-6, 1.1e-5), ("sun", MU_SUN, 1.5e-6, 3.6e-6)])
 def test_tidal_magnitudes_at_geo(full, body, mu, lo, hi):
     """|a| at GEO against the tidal (quadrupole) approximation mu/d^3 (3 (r.e) e - r):

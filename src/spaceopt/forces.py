@@ -190,17 +190,11 @@ def j2_acceleration(r, mu, j2, radius, pole=None):
 # Third bodies
 # --------------------------------------------------------------------------------------------
 def third_body_acceleration(r, r_body, mu_body):
-    """mu_l ((r_l - r)/|r_l - r|^3 - r_l/|r_l|^3) [m/s^2]; r, r_body geocentric [m].
-
-    r_body (3,) with a scalar mu_body, or the bodies stacked, (n, 3) with mu_body (n,): one row
-    per body. The model evaluates its bodies stacked: fewer XLA kernels under the solver's
-    nested derivatives than one evaluation per body (4×4 + Moon + Sun field 412 → 374 kernels;
-    docs/perturbed-e6-e7-e8.md, "nineteenth session").
-    """
+    """mu_l ((r_l - r)/|r_l - r|^3 - r_l/|r_l|^3) [m/s^2]; r, r_body geocentric [m]."""
     d = r_body - r
-    inv_d3 = jnp.sum(d * d, axis=-1, keepdims=True) ** -1.5
-    inv_b3 = jnp.sum(r_body * r_body, axis=-1, keepdims=True) ** -1.5
-    return jnp.asarray(mu_body)[..., None] * (d * inv_d3 - r_body * inv_b3)
+    dn = jnp.sqrt(jnp.dot(d, d))
+    rb = jnp.sqrt(jnp.dot(r_body, r_body))
+    return mu_body * (d / dn ** 3 - r_body / rb ** 3)
 
 
 # --------------------------------------------------------------------------------------------
@@ -322,9 +316,8 @@ def acceleration_terms(r, t, model: PerturbationModel) -> dict:
         out["geopotential"] = to_icrs(a_f, theta, model.rot)
     if model.bodies:
         pos = dict(zip(("moon", "sun"), model.eph.positions(t)))
-        a_bodies = third_body_acceleration(r, jnp.stack([pos[b] for b in model.bodies]), model.mu_bodies)
         for i, b in enumerate(model.bodies):
-            out[b] = a_bodies[i]
+            out[b] = third_body_acceleration(r, pos[b], model.mu_bodies[i])
     return out
 
 
