@@ -9,7 +9,7 @@ single-shooting residual f (docs/perturbed-e6-e7-e8.md, "twentieth session"):
 2. the valley of frame A is {x : v·(x − x₀) = s, U_rᵀ f(x) = 0}, and on it g(s) = u·f(x). Its
    roots are exactly the roots of f, and it is one smooth function of s *because the frame stays
    fixed*: each point is found by Newton steps inside the slice, x ← x − V_rᵀ M⁻¹ U_rᵀ f, whose
-   matrix M = U_r ᵀ J V_rᵀ is refreshed from a fresh Jacobian where the steps stop contracting
+   matrix M = U_rᵀ J V_rᵀ is refreshed from a fresh Jacobian where the steps stop contracting
    (the solver's matrix changes, the valley's definition does not). The library's march
    (``Continuation._flat_root``) holds J fixed at its origin, and a march that re-frames midway
    compares g on different curves;
@@ -61,6 +61,8 @@ def job_problem(model: str, n: float):
 
     pc = yaml.safe_load(open("config/studies/perturbed.yaml"))["perturbed"]
     cc = pc["cases"]["e8"]
+    # the job's config as the DAG passes it (pt_config_for of workflow/rules/perturbed.smk,
+    # which Python cannot import)
     cfg = {"constants": pc["constants"], "numerics": pc["numerics"], "models": {model: pc["models"][model]},
            "orbits": {cc[k]: pc["orbits"][cc[k]] for k in ("initial", "final")}, "cases": {"e8": cc}}
     prev = cc["models"][cc["models"].index(model) - 1]
@@ -87,17 +89,21 @@ def main(model, n, failure, side, ds, count):
     def residual(x):
         return np.asarray(chain.residual(sh, jnp.asarray(x), 1.0, prm)[0])
 
-    def jacobian(x):
-        return np.asarray(chain.shoot(sh, jnp.asarray(x), 1.0, prm)[1])
+    def evaluate(x):
+        """(f, J) at x."""
+        f, J = chain.shoot(sh, jnp.asarray(x), 1.0, prm)[:2]
+        return np.asarray(f), np.asarray(J)
 
     z = np.asarray(json.load(open(failure))["diagnosis"]["z"])
-    U, S, Vt = np.linalg.svd(jacobian(z))
+    f, J = evaluate(z)
+    U, S, Vt = np.linalg.svd(J)
     for _ in range(30):                                   # chords of J(z) to its valley point x0
-        step = (U[:, :-1].T @ residual(z)) / S[:-1]
+        step = (U[:, :-1].T @ f) / S[:-1]
         z = z - Vt[:-1].T @ step
         if np.linalg.norm(step) < 1e-9:
             break
-    U, S, Vt = np.linalg.svd(jacobian(z))
+        f = residual(z)
+    U, S, Vt = np.linalg.svd(evaluate(z)[1])
     u, v, Ur, Vr = U[:, -1], Vt[-1], U[:, :-1], Vt[:-1]
     log(f"frame A at the valley point: sigma_min {S[-1]:.3e} of {S[0]:.3e}")
     M = np.diag(S[:-1])                                   # U_rᵀ J V_rᵀ at x0, J = U diag(S) Vᵀ
@@ -111,7 +117,7 @@ def main(model, n, failure, side, ds, count):
             if nc < min(1e-8, 0.05 * abs(u @ f)) or (fresh and nc > 0.9 * prev and it > 2):
                 break
             if nc > 0.3 * prev and not fresh and it > 1 and nc > 1e-8:
-                M, fresh = Ur.T @ jacobian(x) @ Vr.T, True
+                M, fresh = Ur.T @ evaluate(x)[1] @ Vr.T, True
                 log(f"    fresh reduced matrix (|f_r| {nc:.2e})")
             x = x - Vr.T @ np.linalg.solve(M, c)
             prev = nc
