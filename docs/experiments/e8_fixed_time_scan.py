@@ -1,0 +1,184 @@
+"""The free-time condition of a perturbed OT extremal as a 1-D function of the time of flight.
+
+At the E8 full-model extremals the weakest residual direction is p_t(K_f) = 0, the free-final-time
+condition (docs/perturbed-e6-e7-e8.md, second session of 23 Nov; twentieth session: u_min is the
+p_t(K_f) row). This script splits the problem in two:
+
+* inner: the **fixed-time** OT problem (1.1.11), the same unknowns z with the row p_t(K_f) = 0
+  replaced by t(K_f) = t_f, solved by Newton at each t_f of a scan, each start predicted from the
+  last solution along dz/dt_f = J⁻¹ e_t (∂f/∂t_f = −e_t);
+* outer: φ(t_f) = p_t(K_f) of the fixed-time extremal. Its roots are exactly the free-time
+  extremals. Along the family, by the envelope theorem, φ is proportional to dJ*/dt_f, so the
+  free-time extremals are the stationary points of the final mass m_f(t_f) of the fixed-time
+  family, and the scan shows all of them in the range, with their order (a local maximum of m_f
+  is a free-time extremal that a one-parameter perturbation cannot improve).
+
+Usage (repository root):
+  python docs/experiments/e8_fixed_time_scan.py ARTIFACT.json OUT.jsonl STEP_DAYS UP DOWN
+
+ARTIFACT: a converged free-time OT artifact (results/perturbed/e8/<model>_n<n>.json); the scan
+starts at its Δt and takes UP steps of STEP_DAYS upwards, then DOWN steps downwards from the
+start. Each fixed-time point appends one JSON line to OUT (t_f, m_f, φ, |f|, Jacobians, wall).
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import sys
+import time
+
+import jax.numpy as jnp
+import numpy as np
+import yaml
+
+from spaceopt.indirect import hamiltonians as hm
+from spaceopt.indirect.flow import params_at, propagate
+from spaceopt.indirect.shooting import initial_state, residual, shoot
+from spaceopt.studies import multirev
+
+DAY = 86400.0
+TOL = 3e-8           # |f| of an accepted fixed-time point, the time row excepted (the DAG's E8
+                     # extremals end at |F| 1.6e-8 … 4e-8; with rtol 1e-11 Newton jitters at
+                     # 2e-9 over 250 revolutions, at 1e-8 … 4e-8 over 450),
+TIME_RTOL = 1e-8     # the time row relative to t_f: t(K_f) carries the integration error, rtol
+                     # 1e-11 of ~1000 time units (E8 250 rev: Newton jitters at 4e-8 … 5e-7 there)
+MAX_NEWTON = 8
+PHI_TOL = 1e-8       # |φ| that ends a refinement (the free-time polish accepts |F| 1e-8 … 4e-8)
+VERBOSE = True
+
+
+def end_state(sh, z, prm):
+    """y(K_f) at τ = 1 with the end-point tolerances."""
+    y0 = initial_state(sh, jnp.asarray(z), params_at(sh.model, prm, 1.0))
+    yf, _, ok = propagate(sh.model, y0, z[sh.kf_index], 1.0, prm, sh.rtol, sh.atol, sh.max_steps)
+    if not ok:
+        raise RuntimeError("propagation failed")
+    return np.asarray(yf)
+
+
+def newton(sh, z, prm):
+    """Newton on the fixed-time residual from z: (z, J at the last evaluation, |f| of the rows but
+    the time row, Jacobians)."""
+    for k in range(1, MAX_NEWTON + 1):
+        f, J, _, _, ok = shoot(sh, jnp.asarray(z), 1.0, prm)
+        f, J = np.asarray(f), np.asarray(J)
+        nf = float(np.linalg.norm(f[:-1]))
+        if not ok or not np.isfinite(nf):
+            raise RuntimeError("propagation failed in Newton")
+        if VERBOSE:
+            print(f"    newton {k}: |f| {nf:.3e}  rows {np.array2string(np.abs(f), precision=1)}", flush=True)
+        if nf < TOL and abs(f[-1]) < TIME_RTOL * float(prm["tf"]):
+            return z, J, nf, k
+        z = z + np.linalg.solve(J, -f)
+    raise RuntimeError(f"Newton did not converge (|f| {nf:.2e} after {MAX_NEWTON} Jacobians)")
+
+
+class Family:
+    """The fixed-time problems of one free-time problem (sh_free, prm0): solve one t_f, log it."""
+
+    def __init__(self, sh_free, prm0, z0, tu, m0, out):
+        z0 = np.asarray(z0, float)
+        if hm.TIME not in sh_free.free_costates:
+            # an unperturbed layout (p_t ≡ 0 there, not an unknown): p_t(0) joins, starting at 0
+            free = tuple(sorted((*sh_free.free_costates, hm.TIME)))
+            z0 = np.insert(z0, free.index(hm.TIME), 0.0)
+            sh_free = dataclasses.replace(sh_free, free_costates=free)
+        self.sh_free, self.sh = sh_free, dataclasses.replace(sh_free, fixed_time=True)
+        self.prm0, self.z0, self.tu, self.m0, self.out = prm0, z0, tu, m0, out
+        self.t0 = float(end_state(self.sh, z0, prm0)[hm.TIME])
+        self.e_t = np.zeros(self.sh.size)
+        self.e_t[-1] = 1.0       # the last row: t(K_f) − t_f (p_t(K_f) in the free-time layout)
+
+    def point(self, z, tf):
+        """The fixed-time extremal at t_f from the start z: (z, J, its record)."""
+        prm = {**self.prm0, "tf": jnp.asarray(tf)}
+        w = time.perf_counter()
+        z, J, nf, jac = newton(self.sh, z, prm)
+        yf = end_state(self.sh, z, prm)
+        rec = {"tf_days": tf * self.tu / DAY, "m_f_kg": float(yf[hm.MASS]) * self.m0,
+               "phi_pt_Kf": float(yf[self.sh.model.n + hm.TIME]),
+               "K_f_deg": float(np.degrees(z[self.sh.kf_index])), "residual": nf, "jacobians": jac,
+               "wall_s": time.perf_counter() - w, "z": z.tolist()}
+        with open(self.out, "a") as fh:
+            fh.write(json.dumps(rec) + "\n")
+        print(f"t_f {rec['tf_days']:.4f} d  m_f {rec['m_f_kg']:.6f} kg  phi {rec['phi_pt_Kf']:+.4e}  "
+              f"|f| {nf:.1e}  jac {jac}  {rec['wall_s']:.0f} s", flush=True)
+        return z, J, rec
+
+
+def scan(fam, step_days, up, down):
+    """The family through its start (at the start's own t(K_f)): UP steps of STEP_DAYS upwards,
+    then DOWN steps downwards from the start."""
+    z_start, J_start, _ = fam.point(fam.z0, fam.t0)
+    dtf = step_days * DAY / fam.tu
+    for sign, count in ((+1, up), (-1, down)):
+        zs, J, tf = [z_start], J_start, fam.t0
+        for _ in range(count):
+            tf += sign * dtf
+            z, J, _ = fam.point(predict(zs, J, fam.e_t * sign * dtf), tf)
+            zs.append(z)
+
+
+def refine(fam, days_tol):
+    """The root of φ(t_f) in the first bracket of OUT where φ turns from − to + as t_f grows
+    (dm_f/dt_f = −m₀ φ: a local maximum of m_f), by the Illinois variant of regula falsi, each
+    start interpolated between the bracket's solutions; then the free-time residual there."""
+    pts = sorted((json.loads(line) for line in open(fam.out)), key=lambda r: r["tf_days"])
+    lo, hi = next((a, b) for a, b in zip(pts, pts[1:]) if a["phi_pt_Kf"] < 0 < b["phi_pt_Kf"])
+    fa, fb, last = lo["phi_pt_Kf"], hi["phi_pt_Kf"], None
+    while hi["tf_days"] - lo["tf_days"] > days_tol and min(-fa, fb) > 0:
+        w = fa / (fa - fb)
+        tf_days = lo["tf_days"] + w * (hi["tf_days"] - lo["tf_days"])
+        _, _, rec = fam.point((1 - w) * np.asarray(lo["z"]) + w * np.asarray(hi["z"]), tf_days * DAY / fam.tu)
+        if abs(rec["phi_pt_Kf"]) < PHI_TOL:
+            lo = hi = rec
+            break
+        if rec["phi_pt_Kf"] < 0:
+            lo, fa = rec, rec["phi_pt_Kf"]
+            fb *= 0.5 if last == "lo" else 1.0       # Illinois: the same end kept twice
+            last = "lo"
+        else:
+            hi, fb = rec, rec["phi_pt_Kf"]
+            fa *= 0.5 if last == "hi" else 1.0
+            last = "hi"
+    best = min(lo, hi, key=lambda r: abs(r["phi_pt_Kf"]))
+    f = np.asarray(residual(fam.sh_free, jnp.asarray(best["z"]), 1.0, fam.prm0)[0])
+    print(f"free-time extremal: t_f {best['tf_days']:.6f} d, m_f {best['m_f_kg']:.6f} kg "
+          f"(m_p {fam.m0 - best['m_f_kg']:.6f} kg), free-time |F| {np.linalg.norm(f):.2e}", flush=True)
+
+
+def predict(zs, J, dtf_e_t):
+    """The next start at equal t_f steps: the tangent J⁻¹ e_t Δt_f from the first point, then
+    the polynomial through the last two or three solutions (the family bends: from the 250-rev
+    extremal the tangent step of 0.1 d misses t_f by 0.29 time units of 0.315)."""
+    if len(zs) == 1:
+        return zs[0] + np.linalg.solve(J, dtf_e_t)
+    if len(zs) == 2:
+        return 2 * zs[-1] - zs[-2]
+    return 3 * zs[-1] - 3 * zs[-2] + zs[-3]
+
+
+def main(args):
+    if args[0] == "artifact":
+        sol = multirev.load(args[1])
+        problem = (sol.shooting, sol.prm, np.asarray(sol.z), sol.transfer.tu, sol.transfer.m0)
+        rest = args[2:]
+    else:                        # job MODEL N START: the DAG job's problem at a failed end point
+        sys.path.insert(0, "docs/experiments")
+        from e8_valley_scan import job_problem
+        sh, prm = job_problem(args[1], float(args[2]))
+        # a failure JSON's z (diagnosis), or a valley point x0 of e8_valley_scan (.npz): from the
+        # 450 failure's z (|f| 0.05) fixed-time Newton diverges (|f| 9 after 4 steps)
+        z = json.load(open(args[3]))["diagnosis"]["z"] if args[3].endswith(".json") else np.load(args[3])["x0"]
+        m0 = yaml.safe_load(open("config/studies/perturbed.yaml"))["perturbed"]["cases"]["e8"]["m0_kg"]
+        problem = (sh, prm, np.asarray(z, float), float(prm["tu"]), float(m0))
+        rest = args[4:]
+    if rest[0] == "refine":                  # refine OUT DAYS_TOL: the root in OUT's bracket
+        refine(Family(*problem, rest[1]), float(rest[2]))
+    else:                                    # OUT STEP_DAYS UP DOWN
+        out, step, up, down = rest
+        scan(Family(*problem, out), float(step), int(up), int(down))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
