@@ -6,19 +6,25 @@ p_t(K_f) row). This script splits the problem in two:
 
 * inner: the **fixed-time** OT problem (1.1.11), the same unknowns z with the row p_t(K_f) = 0
   replaced by t(K_f) = t_f, solved by Newton at each t_f of a scan, each start predicted from the
-  last solution along dz/dt_f = J⁻¹ e_t (∂f/∂t_f = −e_t);
+  last solutions (the tangent dz/dt_f = J⁻¹ e_t from the first, ∂f/∂t_f = −e_t);
 * outer: φ(t_f) = p_t(K_f) of the fixed-time extremal. Its roots are exactly the free-time
-  extremals. Along the family, by the envelope theorem, φ is proportional to dJ*/dt_f, so the
-  free-time extremals are the stationary points of the final mass m_f(t_f) of the fixed-time
-  family, and the scan shows all of them in the range, with their order (a local maximum of m_f
-  is a free-time extremal that a one-parameter perturbation cannot improve).
+  extremals. By the envelope theorem dm_f/dt_f = −m₀ φ (t_f in time units; checked to 1–2 % by
+  finite differences on E5), so the free-time extremals are the stationary points of the final
+  mass m_f(t_f) of the fixed-time family: a scan shows all of them in its range, and which are
+  local maxima (docs/perturbed-e6-e7-e8.md, "twenty-first session").
 
-Usage (repository root):
-  python docs/experiments/e8_fixed_time_scan.py ARTIFACT.json OUT.jsonl STEP_DAYS UP DOWN
+Usage (repository root; OUT gets one JSON line per fixed-time point: t_f, m_f, φ, |f|, z, …):
 
-ARTIFACT: a converged free-time OT artifact (results/perturbed/e8/<model>_n<n>.json); the scan
-starts at its Δt and takes UP steps of STEP_DAYS upwards, then DOWN steps downwards from the
-start. Each fixed-time point appends one JSON line to OUT (t_f, m_f, φ, |f|, Jacobians, wall).
+  python docs/experiments/e8_fixed_time_scan.py artifact ARTIFACT.json OUT STEP_DAYS UP DOWN
+  python docs/experiments/e8_fixed_time_scan.py job MODEL N START OUT STEP_DAYS UP DOWN
+  python docs/experiments/e8_fixed_time_scan.py artifact ARTIFACT.json refine OUT DAYS_TOL
+
+``artifact``: the family through a converged free-time OT artifact (an unperturbed one too: p_t
+joins the unknowns at 0), started at its Δt, UP steps of STEP_DAYS upwards, then DOWN downwards.
+``job``: the DAG's E8 job (MODEL, N) as ``e8_valley_scan.job_problem`` builds it, started at a
+failed end point: a failure JSON's z or a valley point x0 of e8_valley_scan (.npz).
+``refine``: closes the first bracket in OUT where φ turns from − to + (a local maximum of m_f).
+One fixed-time point costs 2–5 Jacobians: 7 s on E5, ~2 min at 250 revolutions.
 """
 from __future__ import annotations
 
@@ -41,10 +47,10 @@ TOL = 3e-8           # |f| of an accepted fixed-time point, the time row excepte
                      # extremals end at |F| 1.6e-8 … 4e-8; with rtol 1e-11 Newton jitters at
                      # 2e-9 over 250 revolutions, at 1e-8 … 4e-8 over 450),
 TIME_RTOL = 1e-8     # the time row relative to t_f: t(K_f) carries the integration error, rtol
-                     # 1e-11 of ~1000 time units (E8 250 rev: Newton jitters at 4e-8 … 5e-7 there)
+                     # 1e-11 of ~1000 time units (E8 250 rev: Newton jitters at 4e-8 … 5e-7 there,
+                     # and converges only linearly in it)
 MAX_NEWTON = 8
 PHI_TOL = 1e-8       # |φ| that ends a refinement (the free-time polish accepts |F| 1e-8 … 4e-8)
-VERBOSE = True
 
 
 def end_state(sh, z, prm):
@@ -65,8 +71,7 @@ def newton(sh, z, prm):
         nf = float(np.linalg.norm(f[:-1]))
         if not ok or not np.isfinite(nf):
             raise RuntimeError("propagation failed in Newton")
-        if VERBOSE:
-            print(f"    newton {k}: |f| {nf:.3e}  rows {np.array2string(np.abs(f), precision=1)}", flush=True)
+        print(f"    newton {k}: |f| {nf:.3e}  rows {np.array2string(np.abs(f), precision=1)}", flush=True)
         if nf < TOL and abs(f[-1]) < TIME_RTOL * float(prm["tf"]):
             return z, J, nf, k
         z = z + np.linalg.solve(J, -f)
@@ -124,7 +129,7 @@ def refine(fam, days_tol):
     (dm_f/dt_f = −m₀ φ: a local maximum of m_f), by the Illinois variant of regula falsi, each
     start interpolated between the bracket's solutions; then the free-time residual there."""
     pts = sorted((json.loads(line) for line in open(fam.out)), key=lambda r: r["tf_days"])
-    lo, hi = next((a, b) for a, b in zip(pts, pts[1:]) if a["phi_pt_Kf"] < 0 < b["phi_pt_Kf"])
+    lo, hi = next((a, b) for a, b in zip(pts, pts[1:]) if a["phi_pt_Kf"] <= 0 < b["phi_pt_Kf"])
     fa, fb, last = lo["phi_pt_Kf"], hi["phi_pt_Kf"], None
     while hi["tf_days"] - lo["tf_days"] > days_tol and min(-fa, fb) > 0:
         w = fa / (fa - fb)
