@@ -50,7 +50,7 @@ TOL = 3e-8           # |f| of an accepted fixed-time point, the time row excepte
 TIME_RTOL = 1e-8     # the time row relative to t_f: t(K_f) carries the integration error, rtol
                      # 1e-11 of ~1000 time units (E8 250 rev: Newton jitters at 4e-8 … 5e-7 there,
                      # and converges only linearly in it)
-MAX_NEWTON = 8
+MAX_NEWTON = 12       # E8 500, 0.05 d from the 321.13-d extremal: 9 Jacobians (a near-fold)
 PHI_TOL = 1e-8       # |φ| that ends a refinement (the free-time polish accepts |F| 1e-8 … 4e-8)
 
 
