@@ -22,7 +22,7 @@ Usage (repository root; OUT gets one JSON line per fixed-time point: t_f, m_f, �
 ``artifact``: the family through a converged free-time OT artifact (an unperturbed one too: p_t
 joins the unknowns at 0), started at its Δt, UP steps of STEP_DAYS upwards, then DOWN downwards.
 ``job``: the DAG's E8 job (MODEL, N) as ``e8_valley_scan.job_problem`` builds it, started at a
-failed end point: a failure JSON's z or a valley point x0 of e8_valley_scan (.npz).
+failed end point: a failure JSON's z, or an .npz whose x0 is a valley point there.
 ``refine``: closes the first bracket in OUT where φ turns from − to + (a local maximum of m_f).
 One fixed-time point costs 2–5 Jacobians: 7 s on E5, ~2 min at 250 revolutions.
 """
@@ -187,8 +187,9 @@ def main(args):
         sys.path.insert(0, "docs/experiments")
         from e8_valley_scan import job_problem
         sh, prm = job_problem(args[1], float(args[2]))
-        # a failure JSON's z (diagnosis), or a valley point x0 of e8_valley_scan (.npz): from the
-        # 450 failure's z (|f| 0.05) fixed-time Newton diverges (|f| 9 after 4 steps)
+        # a failure JSON's z (diagnosis), or an .npz whose x0 is a valley point (the twentieth
+        # session's frame A, reached by e8_valley_scan's chords): from the 450 failure's z
+        # (|f| 0.05) fixed-time Newton diverges (|f| 9 after 4 steps)
         z = json.load(open(args[3]))["diagnosis"]["z"] if args[3].endswith(".json") else np.load(args[3])["x0"]
         m0 = yaml.safe_load(open("config/studies/perturbed.yaml"))["perturbed"]["cases"]["e8"]["m0_kg"]
         problem = (sh, prm, np.asarray(z, float), float(prm["tu"]), float(m0))
