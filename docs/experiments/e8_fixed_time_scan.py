@@ -37,20 +37,20 @@ import jax.numpy as jnp
 import numpy as np
 import yaml
 
+from spaceopt.errors import ArtifactError
 from spaceopt.indirect import hamiltonians as hm
 from spaceopt.indirect.flow import params_at, propagate
 from spaceopt.indirect.shooting import initial_state, residual, shoot
-from spaceopt.errors import ArtifactError
 from spaceopt.studies import multirev
 
 DAY = 86400.0
 TOL = 3e-8           # |f| of an accepted fixed-time point, the time row excepted (the DAG's E8
                      # extremals end at |F| 1.6e-8 … 4e-8; with rtol 1e-11 Newton jitters at
-                     # 2e-9 over 250 revolutions, at 1e-8 … 4e-8 over 450),
+                     # 2e-9 over 250 revolutions, at 1e-8 … 4e-8 over 450)
 TIME_RTOL = 1e-8     # the time row relative to t_f: t(K_f) carries the integration error, rtol
                      # 1e-11 of ~1000 time units (E8 250 rev: Newton jitters at 4e-8 … 5e-7 there,
                      # and converges only linearly in it)
-MAX_NEWTON = 12       # E8 500, 0.05 d from the 321.13-d extremal: 9 Jacobians (a near-fold)
+MAX_NEWTON = 12      # E8 500, 0.05 d from the 321.13-d extremal: 9 Jacobians (a near-fold)
 PHI_TOL = 1e-8       # |φ| that ends a refinement (the free-time polish accepts |F| 1e-8 … 4e-8)
 
 
