@@ -82,6 +82,11 @@ def main(sm):
     except ConvergenceError as exc:
         fail(exc, ".failure.json")
         raise
+    # the local maximum of m_f in the time of flight next to the free-time extremal (numerics
+    # tof_maximum): a free-time Newton also accepts degenerate points (E8 250, 500 rev)
+    sol, record = P.maximise_in_tof(sol, cfg, case, label)
+    if record is not None:
+        extra["tof_maximum"] = record
     P.save(sol, out, cfg, wall_time(sol.stats), extra,
            samples_per_rev=cfg["numerics"]["samples_per_rev"])
     shutil.rmtree(out.with_suffix(".checkpoints"), ignore_errors=True)   # solved: none needed

@@ -119,11 +119,22 @@ def residual(sh: Shooting, z, tau, prm, rtol=None, atol=None):
     return _residual(sh, z, tau, prm, sh.rtol if rtol is None else rtol, sh.atol if atol is None else atol)
 
 
+def final_state(sh: Shooting, z, tau, prm):
+    """y(K_f) from the unknowns z at the end-point tolerances, and the success flag."""
+    return _final_state(sh, z, tau, prm, sh.rtol, sh.atol)
+
+
+@partial(jax.jit, static_argnums=0)
+def _final_state(sh: Shooting, z, tau, prm, rtol, atol):
+    y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
+    yf, _, ok = propagate(sh.model, y0, z[sh.kf_index], tau, prm, rtol, atol, sh.max_steps)
+    return yf, ok
+
+
 @partial(jax.jit, static_argnums=0)
 def _residual(sh: Shooting, z, tau, prm, rtol, atol):
     kf = sh.kf_index
-    y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
-    yf, _, ok = propagate(sh.model, y0, z[kf], tau, prm, rtol, atol, sh.max_steps)
+    yf, ok = _final_state(sh, z, tau, prm, rtol, atol)
     r_term = terminal_residual(sh, yf, z[kf], params_at(sh.model, prm, tau), tau)
     return jnp.concatenate([jnp.atleast_1d(transversality(sh, z, tau, prm)), r_term]), ok
 

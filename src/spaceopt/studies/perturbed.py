@@ -42,6 +42,7 @@ from ..indirect import chain
 from ..indirect import hamiltonians as hm
 from ..indirect.chain import Solution
 from ..indirect.continuation import ACCEPTED_UPDATES, GROWTH, ArclengthOptions, ContinuationOptions
+from ..indirect.free_time import MaximumOptions, maximise_final_mass
 from ..indirect.shooting import Shooting
 from ..indirect.transfer import MAX_STEPS, PATH_RTOL, Orbit, Transfer, step_cap
 from . import multirev
@@ -54,7 +55,7 @@ CASE_KEYS = ("initial", "final", "L0_deg", "n_rev", "m0_kg", "isp_s", "thrust_N"
              "ephemeris", "models")
 OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref", "route", "model_start", "fallback",
                       "perturb_at_eps", "model_step_at_eps", "path_rtol", "path_arcs", "warm_step_growth",
-                      "model_step")
+                      "model_step", "tof_maximum")
 MODEL_STEP_PATHS = ("tau", "arclength")
 
 
@@ -425,6 +426,28 @@ def perturb_from_unperturbed(sol: Solution, tr_to: Transfer, label: str, path: s
         f" at eps = {eps_smooth:g})" if eps_smooth is not None else ")")
     out.thrust_N = sol.thrust_N
     return out
+
+
+def tof_maximum_settings(pc: dict, case: str) -> dict | None:
+    """The end game's settings of ``case``: ``perturbed.numerics.tof_maximum``, each key the case's
+    own ``tof_maximum`` gives replaced (E9: probes 0.001 d apart, its m_f(t_f) falls by 4 g within
+    0.001 d of the maximum and the fixed-time Newton fails at 0.05 d); None (absent or null): off."""
+    settings = pc["numerics"].get("tof_maximum")
+    cc = pc["cases"][case]
+    if "tof_maximum" in cc:
+        settings = None if cc["tof_maximum"] is None else {**(settings or {}), **cc["tof_maximum"]}
+    return settings or None
+
+
+def maximise_in_tof(sol: Solution, pc: dict, case: str, label: str) -> tuple[Solution, dict | None]:
+    """The free-time end game of a perturbed OT solution (:mod:`spaceopt.indirect.free_time`,
+    :func:`tof_maximum_settings`): (the solution at the local maximum of m_f in t_f next to
+    ``sol``, its record). An unperturbed solution is returned as it is, with no record: its
+    family m_f(t_f) has no perturbation wiggle, and its layout no p_t."""
+    settings = tof_maximum_settings(pc, case)
+    if not settings or not sol.transfer.perturbed:
+        return sol, None
+    return maximise_final_mass(sol, MaximumOptions(label=f"{label} tof maximum", **settings))
 
 
 load = multirev.load     # rebuilds perturbed solutions too (model.perturbed in the artifact)

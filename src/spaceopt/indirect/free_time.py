@@ -1,0 +1,271 @@
+"""The free-time end game: a local maximum of the final mass along the fixed-time family.
+
+A perturbed free-time OT extremal (time free: p_t(K_f) = 0, spec 01-methods §2.1) is a
+stationary point of the final mass over the **fixed-time** extremals through it. At a fixed
+t_f the shooting map keeps its unknowns z and replaces the row p_t(K_f) = 0 by t(K_f) = t_f
+(1.1.11); with φ(t_f) = p_t(K_f) of that extremal the envelope theorem gives
+
+    dm_f/dt_f = −φ(t_f)          (m in units of m₀, t in time units),
+
+checked by finite differences to 1–2 % on E5 (docs/perturbed-e6-e7-e8.md, "twenty-first
+session"). The roots of φ are the free-time extremals, and a root where φ turns from − to + as
+t_f grows is a local maximum of m_f in t_f. Newton on the free-time map finds *a* root, and
+under the lunisolar perturbations φ wiggles (E8 full model: amplitude ~5e-7 on a 0.1–0.3 d
+scale, against a slope of 2.35e-7 per 0.1 d unperturbed), so that its polish, which accepts
+|F| ≤ 1e-7, also lands on degenerate points: E8 250 revolutions from scratch, 177.4674 d, where
+φ rises to −4e-8 and falls again (an inflection of m_f; the maximum is 1.5 g heavier at
+177.805 d), and E8 500, 321.1281 d (m_f rises by 0.9 g within 0.05 d).
+
+:func:`maximise_final_mass` takes a converged perturbed free-time solution and
+
+1. solves the fixed-time extremal at its own t_f = t(K_f) (Newton from its z);
+2. probes t_f ± δ (``probe_days``); a local maximum lies between them where φ(t_f − δ) < 0 <
+   φ(t_f + δ);
+3. otherwise marches uphill in m_f (towards −sign φ, from the probe with the larger m_f) by
+   steps δ, each start extrapolated through the last solutions in t_f, the step halved where
+   Newton fails (to δ/8), until φ turns from − to +;
+4. finds the root in that bracket by Brent's method (``scipy.optimize.brentq``, to
+   ``tof_tol_days``; each value of φ a fixed-time Newton solve started from the bracket's
+   solutions interpolated in t_f). Brent keeps a sign change between the ends of its bracket,
+   each new point replacing the end of its own sign, so the negative end stays on the left and
+   the root it returns is a crossing of φ from − to +: a local maximum of m_f. Where the
+   solution itself lies in a bracket of the probes, Brent runs on the half of it that the
+   solution's φ bounds: one value of φ alone does not tell a maximum from a minimum.
+
+The fixed-time extremal at that root satisfies every free-time row but p_t(K_f), which is φ
+there. Where no bracket is found within ``max_points`` fixed-time solves, the solution is
+returned unchanged and the record says so. The Newton iterations and the march are written by hand: each value of the
+one-dimensional function φ is a Newton solve warm-started from its neighbours, a state that
+the bracketing solvers of scipy and optimistix do not carry between their evaluations.
+"""
+from __future__ import annotations
+
+import dataclasses
+import sys
+import time
+from dataclasses import dataclass
+
+import jax.numpy as jnp
+import numpy as np
+from scipy.optimize import brentq
+
+from . import hamiltonians as hm
+from .shooting import final_state, residual, shoot
+
+DAY = 86400.0
+
+
+@dataclass
+class MaximumOptions:
+    probe_days: float = 0.05        # δ: the probes at t_f ± δ and the march's step
+    tof_tol_days: float = 1e-4      # the width at which Brent's bracket ends
+    max_points: int = 16            # fixed-time solves of the probes and the march at most
+    newton_tol: float = 3e-8        # |f|₂ of a fixed-time point, the time row excepted (E8: the
+    # DAG's extremals end at 1.6e-8 … 4e-8; Newton jitters at 2e-9 over 250 revolutions and at
+    # 1e-8 … 4e-8 over 450, rtol 1e-11)
+    time_rtol: float = 1e-8         # |t(K_f) − t_f| relative to t_f (t(K_f) carries the integration error)
+    max_newton: int = 12            # Jacobians per fixed-time point (E8 500 near a fold: 9)
+    verbose: bool = True
+    label: str = ""
+
+
+@dataclass
+class FixedTimePoint:
+    """A fixed-time extremal: t_f (time units), its unknowns z and Jacobian J, the final mass
+    m_f (units of m₀) and φ = p_t(K_f)."""
+    tf: float
+    z: np.ndarray
+    J: np.ndarray
+    m_f: float
+    phi: float
+
+
+class FixedTimeFamily:
+    """The fixed-time problems of one perturbed free-time problem (shooting ``sh``, data ``prm``)."""
+
+    def __init__(self, sh, prm, opt: MaximumOptions):
+        if hm.TIME not in sh.free_costates or sh.fixed_time:
+            raise ValueError("the fixed-time family needs a free-time problem with p_t among its unknowns")
+        self.sh_free, self.sh = sh, dataclasses.replace(sh, fixed_time=True)
+        self.prm, self.opt = prm, opt
+        self.jacobians = self.solves = 0
+        self.e_t = np.zeros(sh.size)
+        self.e_t[sh.residual_names().index("p_t(K_f)")] = 1.0     # the row t(K_f) − t_f
+
+    def end_time(self, z) -> float:
+        """t(K_f) of the unknowns z (time units)."""
+        yf, ok = final_state(self.sh_free, jnp.asarray(z), 1.0, self.prm)
+        if not ok:
+            raise ValueError("the propagation of the free-time solution failed")
+        return float(yf[hm.TIME])
+
+    def point(self, tf: float, z) -> FixedTimePoint | None:
+        """The fixed-time extremal at ``tf`` by Newton from ``z``; None where Newton fails
+        (``max_newton`` Jacobians, a failed propagation or a growing residual)."""
+        opt, prm = self.opt, {**self.prm, "tf": jnp.asarray(tf)}
+        self.solves += 1
+        z, last = np.asarray(z, float), np.inf
+        for _ in range(opt.max_newton):
+            f, J, _, _, ok = shoot(self.sh, jnp.asarray(z), 1.0, prm)
+            self.jacobians += 1
+            f, J = np.asarray(f), np.asarray(J)
+            rows = self.e_t == 0
+            nf = float(np.linalg.norm(f[rows]))
+            if not ok or not np.all(np.isfinite(f)) or nf > 10.0 * last:
+                return None
+            if nf <= opt.newton_tol and abs(f[~rows][0]) <= opt.time_rtol * abs(tf):
+                yf, ok = final_state(self.sh, jnp.asarray(z), 1.0, prm)
+                if not ok:
+                    return None
+                yf = np.asarray(yf)
+                return FixedTimePoint(tf, z, J, float(yf[hm.MASS]), float(yf[self.sh.model.n + hm.TIME]))
+            last = nf
+            z = z + np.linalg.solve(J, -f)
+        return None
+
+    def free_time_residual(self, z) -> float:
+        """max |f| of the free-time shooting map at z (τ = 1)."""
+        f, _ = residual(self.sh_free, jnp.asarray(z), 1.0, self.prm)
+        return float(np.max(np.abs(np.asarray(f))))
+
+
+def _interpolate(points: list[FixedTimePoint], tf: float) -> np.ndarray:
+    """The start at ``tf`` inside the solved range: linear between its nearest solved neighbours."""
+    below = max((p for p in points if p.tf <= tf), key=lambda p: p.tf)
+    above = min((p for p in points if p.tf >= tf), key=lambda p: p.tf)
+    if above.tf == below.tf:
+        return below.z.copy()
+    w = (tf - below.tf) / (above.tf - below.tf)
+    return (1.0 - w) * below.z + w * above.z
+
+
+class MaximumSearch:
+    """Steps 2–4 of the module docstring on one family; ``points`` holds every solved point."""
+
+    def __init__(self, family: FixedTimeFamily, tu: float, m0_kg: float):
+        self.family, self.opt = family, family.opt
+        self.delta = self.opt.probe_days * DAY / tu
+        self.tu, self.m0 = tu, m0_kg
+        self.points: list[FixedTimePoint] = []
+
+    def log(self, msg):
+        if self.opt.verbose:
+            print(f"[{self.opt.label}] {msg}", file=sys.stderr, flush=True)
+
+    def days(self, tf) -> float:
+        return tf * self.tu / DAY
+
+    def solve(self, tf, start) -> FixedTimePoint | None:
+        p = self.family.point(tf, start)
+        if p is None:
+            self.log(f"  t_f {self.days(tf):.5f} d: fixed-time Newton failed")
+            return None
+        self.points.append(p)
+        self.log(f"  t_f {self.days(tf):.5f} d: m_f {p.m_f * self.m0:.6f} kg, phi {p.phi:+.3e}")
+        return p
+
+    def extrapolate(self, trail: list[FixedTimePoint], tf: float) -> np.ndarray:
+        """The start at ``tf`` beyond the solved ``trail``: the polynomial in t_f through its last
+        (up to three) points; from a single point its tangent dz/dt_f = J⁻¹ e_t (∂f/∂t_f = −e_t)."""
+        if len(trail) == 1:
+            p = trail[0]
+            return p.z + np.linalg.solve(p.J, self.family.e_t) * (tf - p.tf)
+        pts = trail[-3:]
+        z = np.zeros_like(pts[0].z)
+        for i, p in enumerate(pts):          # Lagrange weights in t_f
+            z = z + np.prod([(tf - q.tf) / (p.tf - q.tf) for j, q in enumerate(pts) if j != i]) * p.z
+        return z
+
+    def bracket(self, origin: FixedTimePoint):
+        """(left, right) solved points with φ(left) < 0 < φ(right), left.tf < right.tf, or a
+        reason string where none was found."""
+        probes = [self.solve(origin.tf + s * self.delta, self.extrapolate([origin], origin.tf + s * self.delta))
+                  for s in (-1.0, 1.0)]
+        if any(p is None for p in probes):
+            return "a probe at t_f +/- probe_days did not converge"
+        lo, hi = probes
+        if lo.phi < 0.0 < hi.phi:
+            return (origin, hi) if origin.phi < 0.0 else (lo, origin)
+        # uphill: m_f grows towards −sign φ; at a local minimum from the heavier probe
+        if lo.phi > 0.0 and (hi.phi > 0.0 or lo.m_f > hi.m_f):
+            return self.march([origin, lo], -1.0)
+        return self.march([origin, hi], +1.0)
+
+    def march(self, trail: list[FixedTimePoint], direction: float):
+        """From the last point of ``trail`` in ``direction`` by steps δ (halved where Newton fails,
+        down to δ/8, and kept), until φ turns from − to + (as t_f grows)."""
+        h = self.delta
+        while len(self.points) < self.opt.max_points:
+            last = trail[-1]
+            tf = last.tf + direction * h
+            p = self.solve(tf, self.extrapolate(trail, tf))
+            if p is None:
+                if h <= self.delta / 8:
+                    return f"the fixed-time family could not be followed past t_f {self.days(last.tf):.5f} d"
+                h *= 0.5
+                continue
+            trail.append(p)
+            if np.sign(p.phi) != np.sign(last.phi):
+                return (last, p) if direction > 0 else (p, last)
+        return f"no sign change of phi within {self.opt.max_points} fixed-time solves"
+
+    def root(self, left: FixedTimePoint, right: FixedTimePoint) -> FixedTimePoint:
+        """The crossing of φ from − to + in [left, right] (Brent), as its solved point."""
+        inside = lambda: [q for q in self.points if left.tf <= q.tf <= right.tf]
+
+        def phi(tf):
+            p = next((q for q in self.points if q.tf == tf), None) or self.solve(tf, _interpolate(inside(), tf))
+            if p is None:
+                raise _NewtonFailed(tf)
+            return p.phi
+
+        tf = brentq(phi, left.tf, right.tf, xtol=self.opt.tof_tol_days * DAY / self.tu, maxiter=40)
+        return min(inside(), key=lambda p: abs(p.tf - tf))
+
+
+class _NewtonFailed(Exception):
+    def __init__(self, tf):
+        self.tf = tf
+
+
+def maximise_final_mass(sol, options: MaximumOptions | None = None):
+    """The local maximum of m_f in t_f next to the free-time solution ``sol`` (a perturbed OT
+    :class:`~.chain.Solution` at τ = 1): (solution, record). The solution is the fixed-time
+    extremal at the maximum, or ``sol`` unchanged where the search failed (record 'status')."""
+    opt = options or MaximumOptions()
+    tr, start = sol.transfer, time.perf_counter()
+    family = FixedTimeFamily(sol.shooting, sol.prm, opt)
+    search = MaximumSearch(family, tr.tu, tr.m0)
+    t0 = family.end_time(sol.z)
+    search.log(f"free-time end game: t_f {search.days(t0):.5f} d, probes at +/- {opt.probe_days:g} d")
+    record = {"probe_days": opt.probe_days, "t0_days": search.days(t0)}
+    origin = search.solve(t0, sol.z)
+    out, status = sol, "maximum"
+    if origin is None:
+        status = "the fixed-time extremal at the solution's own t_f did not converge"
+    else:
+        record["m_f0_kg"] = origin.m_f * tr.m0
+        found = search.bracket(origin)
+        if isinstance(found, str):
+            status = found
+        else:
+            left, right = found
+            record["bracket_days"] = [search.days(left.tf), search.days(right.tf)]
+            try:
+                best = search.root(left, right)
+            except _NewtonFailed as exc:
+                status = f"fixed-time Newton failed inside the bracket at t_f {search.days(exc.tf):.5f} d"
+            else:
+                out = dataclasses.replace(sol, z=best.z, stats=dict(sol.stats))
+                record.update({"tof_days": search.days(best.tf), "m_f_kg": best.m_f * tr.m0,
+                               "m_f_gain_kg": (best.m_f - origin.m_f) * tr.m0, "phi": best.phi})
+    record.update({"status": status, "certified": status == "maximum",
+                   "points": [[search.days(p.tf), p.m_f * tr.m0, p.phi]
+                              for p in sorted(search.points, key=lambda p: p.tf)],
+                   "fixed_time_solves": family.solves, "jacobian_evaluations": family.jacobians,
+                   "free_time_residual": family.free_time_residual(out.z),
+                   "wall_time_s": time.perf_counter() - start})
+    search.log(f"free-time end game: {status}" + (
+        f", t_f {record['tof_days']:.5f} d, m_f {record['m_f_kg']:.6f} kg ({record['m_f_gain_kg'] * 1e3:+.2f} g)"
+        if "tof_days" in record else ""))
+    return out, record

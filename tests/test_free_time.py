@@ -1,0 +1,149 @@
+"""The free-time end game (spaceopt.indirect.free_time): a local maximum of the final mass along
+the fixed-time family, first on model families m_f(t_f) whose φ = −dm_f/dt_f is known, then on
+a perturbed 2-revolution transfer (E1 orbits, EGM96 4×4 with the Earth's rotation: H depends on t)."""
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from spaceopt.indirect import free_time as ft
+from spaceopt.indirect.continuation import ContinuationOptions
+
+ROOT = Path(__file__).resolve().parents[1]
+QUIET = ContinuationOptions(verbose=False)
+
+
+class ModelFamily:
+    """A fixed-time family with z = (t_f, 0) and a given φ(t_f); ``fails_above``: Newton fails
+    there. m_f is φ's antiderivative with a minus sign (the envelope relation dm_f/dt_f = −φ)."""
+
+    def __init__(self, phi, mass, fails_above=np.inf, probe_days=1.0):
+        self.phi, self.mass, self.fails_above = phi, mass, fails_above
+        self.opt = ft.MaximumOptions(probe_days=probe_days, tof_tol_days=1e-9, verbose=False)
+        self.e_t = np.array([0.0, 1.0])
+        self.calls = []
+
+    def point(self, tf, z):
+        self.calls.append(tf)
+        if tf > self.fails_above:
+            return None
+        return ft.FixedTimePoint(tf, np.array([tf, 0.0]), np.eye(2), self.mass(tf), self.phi(tf))
+
+
+def search(family, t0):
+    s = ft.MaximumSearch(family, tu=ft.DAY, m0_kg=1.0)      # time unit = 1 day
+    origin = s.solve(t0, np.array([t0, 0.0]))
+    found = s.bracket(origin)
+    return s, found, (None if isinstance(found, str) else s.root(*found))
+
+
+def test_a_maximum_at_the_solution_is_certified_by_the_probes():
+    fam = ModelFamily(lambda t: 2 * (t - 1.0), lambda t: -(t - 1.0) ** 2)
+    s, (left, right), best = search(fam, 1.0 + 1e-7)
+    assert left.phi < 0 < right.phi and right.tf - left.tf <= 1.0
+    assert abs(best.tf - 1.0) < 1e-8
+
+
+def test_from_an_inflection_the_march_goes_uphill_to_the_maximum():
+    """φ = (t − 1)²(t − 3): a double root at t₀ = 1 (an inflection of m_f, the degenerate point
+    a free-time Newton accepts: E8 250 rev), φ < 0 on both probes; the maximum is at 3."""
+    phi = lambda t: (t - 1.0) ** 2 * (t - 3.0)
+    mass = lambda t: -((t - 1.0) ** 4 / 4 - 2.0 * (t - 1.0) ** 3 / 3)
+    fam = ModelFamily(phi, mass, probe_days=0.3)
+    s, (left, right), best = search(fam, 1.0)
+    assert left.phi < 0 < right.phi and left.tf < 3.0 < right.tf
+    assert abs(best.tf - 3.0) < 1e-8 and mass(best.tf) > mass(1.0)
+    assert min(fam.calls) == pytest.approx(0.7)            # one probe below, then upwards only
+
+
+def test_from_a_local_minimum_the_heavier_side_is_taken():
+    """φ = (t − 1)(t − 2)(t − 3.5): maxima of m_f at 1 and 3.5, a minimum at 2; m_f is higher at
+    the upper maximum, so the march leaves the minimum upwards."""
+    phi = lambda t: (t - 1.0) * (t - 2.0) * (t - 3.5)
+    mass = lambda t: -((t ** 4) / 4 - 6.5 * t ** 3 / 3 + 12.5 * t ** 2 / 2 - 7.0 * t)
+    assert mass(3.5) > mass(1.0)
+    fam = ModelFamily(phi, mass, probe_days=0.3)
+    s, (left, right), best = search(fam, 2.0)
+    assert abs(best.tf - 3.5) < 1e-8 and left.phi < 0 < right.phi
+
+
+def test_a_family_that_cannot_be_followed_is_reported_not_forced():
+    """Newton fails beyond t = 1.4 before φ changes sign: the march halves its step to δ/8 and
+    then stops with a reason."""
+    fam = ModelFamily(lambda t: t - 2.0, lambda t: -0.5 * (t - 2.0) ** 2, fails_above=1.4, probe_days=0.25)
+    s, found, best = search(fam, 1.0)
+    assert isinstance(found, str) and "could not be followed" in found and best is None
+    assert min(t for t in fam.calls if t > 1.4) == pytest.approx(1.375 + 0.25 / 8)
+
+
+def test_the_march_gives_up_after_max_points():
+    fam = ModelFamily(lambda t: t - 100.0, lambda t: -0.5 * (t - 100.0) ** 2, probe_days=0.5)
+    fam.opt = dataclasses.replace(fam.opt, max_points=6)
+    s, found, _ = search(fam, 0.0)
+    assert isinstance(found, str) and "no sign change" in found and len(s.points) == 6
+
+
+def test_brent_returns_a_crossing_from_minus_to_plus_inside_a_wiggly_bracket():
+    """Three roots in the bracket (max, min, max): the root returned is a − → + crossing."""
+    phi = lambda t: (t - 0.2) * (t - 0.5) * (t - 0.8)
+    fam = ModelFamily(phi, lambda t: 0.0)
+    s = ft.MaximumSearch(fam, tu=ft.DAY, m0_kg=1.0)
+    left, right = s.solve(0.0, np.zeros(2)), s.solve(1.0, np.zeros(2))
+    best = s.root(left, right)
+    assert min(abs(best.tf - 0.2), abs(best.tf - 0.8)) < 1e-8
+    assert phi(best.tf - 1e-3) < 0 < phi(best.tf + 1e-3)
+
+
+@pytest.fixture(scope="module")
+def perturbed_e1():
+    """E1 OT 15 N (2 revolutions) with EGM96 4×4 and the Earth rotation angle switched on, and
+    the end game from it with probes 0.01 d apart."""
+    from spaceopt.indirect import chain
+    from spaceopt.studies import multirev, perturbed as P
+
+    cfg = yaml.safe_load((ROOT / "config" / "studies" / "multirev.yaml").read_text())["multirev"]
+    tr = multirev.transfer_from_config(cfg, "e1")
+    ot = chain.solve_ot(chain.solve_lp(tr, QUIET), 15.0, QUIET)
+    tr_p = dataclasses.replace(tr, perturbations={"geopotential": {"degree": 4, "order": 4}, "earth_angle": "era"},
+                               epoch_utc="2021-05-09T12:00:00")
+    sol = P.perturb_from_unperturbed(ot, tr_p, "e1 g44", options=QUIET)
+    opt = ft.MaximumOptions(probe_days=0.01, verbose=False)
+    return sol, opt, ft.maximise_final_mass(sol, opt)
+
+
+def test_the_perturbed_extremal_is_certified_a_maximum_and_kept(perturbed_e1):
+    sol, opt, (out, rec) = perturbed_e1
+    assert rec["status"] == "maximum" and rec["certified"]
+    (t_lo, m_lo, phi_lo), (t_hi, m_hi, phi_hi) = rec["points"][0], rec["points"][-1]
+    assert phi_lo < 0 < phi_hi and t_hi - t_lo == pytest.approx(2 * opt.probe_days)
+    assert abs(rec["tof_days"] - rec["t0_days"]) < 1e-3 and rec["free_time_residual"] < 1e-8
+    np.testing.assert_allclose(out.z, sol.z, rtol=1e-6, atol=1e-9)
+
+
+def test_the_envelope_relation_holds_on_the_fixed_time_family(perturbed_e1):
+    """dm_f/dt_f = −m₀ φ: the mass change from the maximum to each probe equals the trapezoid
+    integral of −m₀ φ (φ nearly linear over 0.01 d)."""
+    sol, opt, (_, rec) = perturbed_e1
+    tu_days = sol.transfer.tu / ft.DAY
+    t0, m0_f, phi0 = next(p for p in rec["points"] if p[0] == rec["t0_days"])
+    for t, m, phi in (rec["points"][0], rec["points"][-1]):
+        predicted = -sol.transfer.m0 * 0.5 * (phi0 + phi) * (t - t0) / tu_days
+        assert m - m0_f == pytest.approx(predicted, rel=0.05), (t, m - m0_f, predicted)
+    assert m0_f > max(rec["points"][0][1], rec["points"][-1][1])
+
+
+def test_from_a_fixed_time_point_off_the_maximum_the_march_returns_to_it(perturbed_e1):
+    """A start 0.035 d above the maximum (the fixed-time extremal there, φ > 0): the march goes
+    down and lands on the free-time extremal that Newton found."""
+    sol, opt, (_, rec) = perturbed_e1
+    family = ft.FixedTimeFamily(sol.shooting, sol.prm, opt)
+    tf = (rec["t0_days"] + 0.035) * ft.DAY / sol.transfer.tu
+    off = family.point(tf, ft.MaximumSearch(family, sol.transfer.tu, 1.0).extrapolate(
+        [family.point(family.end_time(sol.z), sol.z)], tf))
+    assert off is not None and off.phi > 0
+    out, rec_off = ft.maximise_final_mass(dataclasses.replace(sol, z=off.z), opt)
+    assert rec_off["status"] == "maximum" and rec_off["m_f_gain_kg"] > 0
+    assert rec_off["tof_days"] == pytest.approx(rec["t0_days"], abs=2e-4)
+    np.testing.assert_allclose(out.z, sol.z, rtol=1e-4, atol=1e-7)
