@@ -1014,3 +1014,49 @@ def test_the_verification_sentence_states_the_worst_errors_and_the_perturbation_
     text = verification_sentence([{**row, "final_position_without_perturbations_km": 50.0},
                                   {**row, "final_position_without_perturbations_km": 25.0}], "perturbed trajectories")
     assert "at most 2~\\% of the distance by which the perturbations move the end point" in text
+
+
+def test_tof_maximum_settings_merge_the_case_keys_into_the_numerics_ones():
+    """The free-time end game: numerics.tof_maximum for every case, a case's own keys replacing
+    them one by one (E9: probes 0.001 d apart), null switching it off; a bad value is a one-line
+    error naming the key."""
+    from spaceopt.config import validate_section
+    base = PC["numerics"]["tof_maximum"]
+    assert P.tof_maximum_settings(PC, "e8") == base
+    e9 = P.tof_maximum_settings(PC, "e9")
+    assert e9["probe_days"] == PC["cases"]["e9"]["tof_maximum"]["probe_days"] != base["probe_days"]
+    assert {k: v for k, v in e9.items() if k != "probe_days"} == {k: v for k, v in base.items() if k != "probe_days"}
+    off = copy.deepcopy(PC)
+    off["cases"]["e8"]["tof_maximum"] = None
+    assert P.tof_maximum_settings(off, "e8") is None
+    off["numerics"]["tof_maximum"] = None
+    assert P.tof_maximum_settings(off, "e5") is None
+    assert P.tof_maximum_settings(off, "e9") == PC["cases"]["e9"]["tof_maximum"]
+    bad = {"perturbed": copy.deepcopy(PC)}
+    bad["perturbed"]["numerics"]["tof_maximum"]["probe_days"] = -0.05
+    with pytest.raises(ConfigError) as info:
+        validate_section(bad, "perturbed", ROOT / "config/schema/perturbed.schema.yaml")
+    assert str(info.value).startswith("perturbed.numerics.tof_maximum") and "\n" not in str(info.value)
+
+
+def test_an_unperturbed_solution_skips_the_end_game():
+    sol = dataclasses.make_dataclass("S", [("transfer", object)])(P.transfer_from_config(PC, "e8", "unperturbed"))
+    assert P.maximise_in_tof(sol, PC, "e8", "e8") == (sol, None)
+
+
+def test_the_end_game_rows_and_sentence_say_what_was_certified_moved_and_not_found():
+    rec = lambda status, t0, t, gain: {"extra": {"tof_maximum": {
+        "status": status, "t0_days": t0, **({"tof_days": t, "m_f_gain_kg": gain} if t is not None else {}),
+        "fixed_time_solves": 5, "jacobian_evaluations": 9, "wall_time_s": 60.0}}}
+    payloads = {"e8_g44_moon_sun_n250": rec("maximum", 177.4674, 177.8050, 1.5e-3),
+                "e5_g44_moon_sun": rec("maximum", 65.41938, 65.41938, 0.0),
+                "e8_g44_moon_sun_n450": rec("no sign change of phi within 16 fixed-time solves", 289.78, None, None),
+                "e5_unperturbed": {"extra": {}}}
+    rows = R.tof_maximum_rows(payloads)
+    assert [r["solve"] for r in rows] == ["e5_g44_moon_sun", "e8_g44_moon_sun_n250", "e8_g44_moon_sun_n450"]
+    assert rows[1]["m_f_gain_g"] == pytest.approx(1.5) and rows[2]["tof_days"] is None
+    text = R.tof_maximum_sentence(rows)
+    assert "Of 3 perturbed solves, 2 are certified maxima; 1 of them were moved" in text
+    assert "1.50 g" in text and "177.4674 $\\to$ 177.8050 d" in text
+    assert "did not certify e8\\_g44\\_moon\\_sun\\_n450 (no sign change" in text
+    assert R.tof_maximum_sentence([]) == ""

@@ -4,6 +4,7 @@
 #   results/perturbed/e8/<model>_n<n>.{json,npz,rrd}    E8 (n to n; perturbed from unperturbed at n)
 #   results/perturbed/e9_budget.json                    ΔΩ budget check (spec §6)
 #   results/perturbed/{e5,e6_date_scan,e7,e8,e9}.csv, reproduction.csv, paper_section.tex, figures/
+#   results/perturbed/tof_maximum.csv                   the free-time end game of every perturbed solve
 from spaceopt.studies.perturbed import (e8_count_start, e8_model_steps, e8_runs, e8_smoothing, scan_run_dates,
                                         scan_source)
 
@@ -216,6 +217,7 @@ rule perturbed_tables:
         **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},
         repro=f"{PTDIR}/reproduction.csv",
         verify=f"{PTDIR}/verification.csv",
+        tof_maximum=f"{PTDIR}/tof_maximum.csv",
         md=f"{PTDIR}/tables.md",
         tex=f"{PTDIR}/tables/perturbed.tex",
     params: run=PT["run"], cases={c: {"models": PT["cases"][c]["models"]} for c in PT["cases"]},
@@ -248,7 +250,7 @@ rule perturbed_figures:
 
 rule perturbed_paper_section:
     input: repro=f"{PTDIR}/reproduction.csv", tables=f"{PTDIR}/tables/perturbed.tex",
-           verify=f"{PTDIR}/verification.csv",
+           verify=f"{PTDIR}/verification.csv", tof_maximum=f"{PTDIR}/tof_maximum.csv",
            budget=f"{PTDIR}/e9_budget.json",
            figures=[f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()],
            **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},

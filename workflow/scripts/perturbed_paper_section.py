@@ -32,7 +32,8 @@ def main(sm):
                                                   e8_count_start=sm.params.e8_count_start,
                                                   smoothing=sm.params.e8_smoothing,
                                                   e8_steps=sm.params.e8_steps,
-                                                  verify_rows=_read(sm.input.verify)))
+                                                  verify_rows=_read(sm.input.verify),
+                                                  tof_rows=_read(sm.input.tof_maximum)))
 
 
 if __name__ == "__main__":

@@ -25,6 +25,7 @@ def main(sm):
     Path(sm.output.md).write_text(R.markdown(tabs, e6sum, budget))
     Path(sm.output.tex).parent.mkdir(parents=True, exist_ok=True)
     Path(sm.output.tex).write_text(R.latex(tabs))
+    write_csv(sm.output.tof_maximum, R.tof_maximum_rows(payloads), R.TOF_MAXIMUM_COLUMNS)
     ver_rows = verification_rows(sm.input._verify)
     write_verification_csv(sm.output.verify, ver_rows)
     rows = R.reproduction_rows(sm.input._pub, R.ours(tabs, payloads, npzs, budget),

@@ -9,7 +9,9 @@ Inputs are the OT stage payloads (``artifacts.read_json``) keyed as the rules na
     e8.csv            n_rev, model, propellant_kg, tof_days
     e9.csv            model, n_rev, tof_days, m_p_kg, dv_m_s, burn_h
 
-A table whose case is not in the run list is written with its header only.
+A table whose case is not in the run list is written with its header only. Beside them,
+``tof_maximum.csv`` lists the free-time end game of every perturbed solve
+(:func:`tof_maximum_rows`, :mod:`spaceopt.indirect.free_time`).
 """
 from __future__ import annotations
 
@@ -85,6 +87,50 @@ def tables(payloads: dict, run: list, cases: dict, e6: dict, e8_n: list) -> dict
                 if key in payloads:
                     out["e8"].append({"n_rev": float(n), "model": m, **summary(payloads[key])})
     return out
+
+
+TOF_MAXIMUM_COLUMNS = ["solve", "status", "t0_days", "tof_days", "m_f_gain_g", "fixed_time_solves",
+                       "jacobian_evaluations", "wall_time_s"]
+MOVED_DAYS = 1e-3       # an end game that changed Δt by more than this moved the extremal
+
+
+def tof_maximum_rows(payloads: dict) -> list[dict]:
+    """One row per solve whose artifact records the free-time end game (``extra.tof_maximum``):
+    its status, the transfer time before (t0) and after it, and the final mass it gained."""
+    rows = []
+    for key in sorted(payloads):
+        rec = payloads[key].get("extra", {}).get("tof_maximum")
+        if rec:
+            rows.append({"solve": key, "status": rec["status"], "t0_days": rec["t0_days"],
+                         "tof_days": rec.get("tof_days"),
+                         "m_f_gain_g": rec["m_f_gain_kg"] * 1e3 if "m_f_gain_kg" in rec else None,
+                         **{k: rec[k] for k in ("fixed_time_solves", "jacobian_evaluations", "wall_time_s")}})
+    return rows
+
+
+def tof_maximum_sentence(rows: list[dict]) -> str:
+    """What the free-time end game found, for the paper: how many extremals are certified local
+    maxima of m_f in t_f, which were moved to one (and by how much), where the search failed."""
+    if not rows:
+        return ""
+    certified = [r for r in rows if r["status"] == "maximum"]
+    moved = [r for r in certified if abs(r["tof_days"] - r["t0_days"]) > MOVED_DAYS]
+    failed = [r for r in rows if r["status"] != "maximum"]
+    text = (f"Every perturbed extremal then goes through a free-time end game: the fixed-time extremals "
+            r"at $t_f\pm\delta$ give $\varphi = p_t(K_f)$, with $dm_f/dt_f = -m_0\varphi$, and a local "
+            r"maximum of $m_f$ in $t_f$ is certified by a sign change of $\varphi$ from $-$ to $+$ "
+            f"(otherwise the search walks uphill to the next one). Of {len(rows)} perturbed solves, "
+            f"{len(certified)} are certified maxima")
+    if moved:
+        top = max(moved, key=lambda r: abs(r["m_f_gain_g"]))
+        text += (f"; {len(moved)} of them were moved there from the Newton solution, by up to "
+                 f"{top['m_f_gain_g']:.2f} g of final mass ({latex_escape(top['solve'])}, $\\Delta t$ "
+                 f"{top['t0_days']:.4f} $\\to$ {top['tof_days']:.4f} d)")
+    text += "."
+    if failed:
+        text += (" The search did not certify " + ", ".join(
+            f"{latex_escape(r['solve'])} ({latex_escape(r['status'])})" for r in failed) + ".")
+    return text + " "
 
 
 def summary_or_none(payloads: dict, key: str):
@@ -353,12 +399,13 @@ def e8_route_text(count_start: str, smoothing: dict, steps: list) -> str:
 
 
 def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figures: list, *,
-                  e8_count_start: str, smoothing: dict, e8_steps: list, verify_rows=(),
+                  e8_count_start: str, smoothing: dict, e8_steps: list, verify_rows=(), tof_rows=(),
                   resultsdir_macro=r"\resultsdir") -> str:
     """LaTeX fragment of the §4.2 section; every number comes from the artifacts or the config.
     ``e8_count_start``, ``smoothing``, ``e8_steps``: how each E8 count and model starts
     (:func:`e8_route_text`); ``verify_rows``: the independent re-propagations
-    (:func:`spaceopt.studies.verify.verification_rows`)."""
+    (:func:`spaceopt.studies.verify.verification_rows`); ``tof_rows``: the free-time end games
+    (:func:`tof_maximum_rows`)."""
     n_pass = sum(r["status"] == "pass" for r in rows)
     n_fail = sum(r["status"] == "fail" for r in rows)
     n_miss = sum(r["status"] == "missing" for r in rows)
@@ -374,6 +421,7 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
              "(the perturbing accelerations of the two models blended). Each departure date of the scan starts from the "
              "unperturbed extremal in the same way, so every date is an independent solve. "
              + e8_route_text(e8_count_start, smoothing, e8_steps)
+             + tof_maximum_sentence(list(tof_rows))
              + f"Of the reproduction rows, {n_pass} pass, {n_fail} fail "
              f"and {n_miss} were not produced in this run (Table~\\ref{{tab:scoreboard}}). "
              + verification_sentence(list(verify_rows), "perturbed trajectories (its perturbing accelerations are "
