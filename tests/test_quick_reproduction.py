@@ -116,6 +116,16 @@ def test_perturbed_solves_are_re_propagated_with_their_force_model(quick):
     assert "An independent verifier re-propagates each of the 1 perturbed" in (quick / "perturbed" / "paper_section.tex").read_text()
 
 
+def test_the_perturbed_solve_ends_on_a_certified_maximum_of_the_final_mass(quick):
+    """The free-time end game of the E9 J2 solve: a local maximum of m_f in t_f (probes 0.001 d
+    apart, the case's setting), recorded in its artifact, tof_maximum.csv and the paper."""
+    rows = list(csv.DictReader(open(quick / "perturbed" / "tof_maximum.csv")))
+    assert [(r["solve"], r["status"]) for r in rows] == [("e9_j2", "maximum")]
+    rec = artifacts.read_json(quick / "perturbed" / "e9" / "j2.json")["extra"]["tof_maximum"]
+    assert rec["certified"] and rec["probe_days"] == 0.001 and rec["free_time_residual"] < 1e-7
+    assert "Of 1 perturbed solves, 1 are certified maxima" in (quick / "perturbed" / "paper_section.tex").read_text()
+
+
 def test_changing_one_thrust_level_reruns_only_its_dependents(quick, tmp_path):
     override = tmp_path / "override.yaml"
     override.write_text(yaml.safe_dump({"multirev": {"cases": {"e1": {"ot_thrust_N": [16.0]}},
