@@ -147,3 +147,19 @@ def test_from_a_fixed_time_point_off_the_maximum_the_march_returns_to_it(perturb
     assert rec_off["status"] == "maximum" and rec_off["m_f_gain_kg"] > 0
     assert rec_off["tof_days"] == pytest.approx(rec["t0_days"], abs=2e-4)
     np.testing.assert_allclose(out.z, sol.z, rtol=1e-4, atol=1e-7)
+
+
+def test_an_interrupted_end_game_resumes_from_the_saved_free_time_solution(perturbed_e1, tmp_path):
+    """perturbed_solve saves the Newton solution before the end game (the continuation checkpoints
+    are gone by then); a rerun reads it back with its extra and wall time, and a file that does
+    not read back is no start."""
+    from spaceopt.studies import perturbed as P
+    sol = perturbed_e1[0]
+    path = tmp_path / "free_time_start.json"
+    assert P.end_game_start(path) is None
+    P.save(sol, path, {"case": "e1 g44"}, 123.0, {"continued_from": "chain"}, samples_per_rev=20)
+    back, extra, wall = P.end_game_start(path)
+    np.testing.assert_array_equal(back.z, sol.z)
+    assert back.transfer.perturbed and extra["continued_from"] == "chain" and wall == 123.0
+    path.with_suffix(".npz").write_bytes(b"truncated")
+    assert P.end_game_start(path) is None

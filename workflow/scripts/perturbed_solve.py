@@ -24,36 +24,9 @@ def checkpoint_dir(out: Path, cfg: dict) -> Path:
     return here
 
 
-def main(sm):
-    cfg, case, model = sm.params.cfg, sm.params.case, sm.params.model
-    out = Path(sm.output[0])
-    eph = P.ephemeris_path(sm.params.results, cfg["cases"][case]["ephemeris"])
-    kw = {"ephemeris": eph}
-    if sm.rule == "perturbed_e6_date":
-        kw["epoch_utc"] = sm.params.epoch
-    if sm.rule == "perturbed_e8":
-        kw["n_rev"] = sm.params.n_rev
-    tr = P.transfer_from_config(cfg, case, model, **kw)
-    label = f"{case}/{model}" + (f"/{kw['epoch_utc'][:10]}" if "epoch_utc" in kw else "") + \
-        (f"/n{kw['n_rev']:g}" if "n_rev" in kw else "")
-    # perturbations switched on / the force model changed at a larger smoothing ε than ε_f
-    # (case options perturb_at_eps, model_step_at_eps), the continuation step rule
-    # (warm_step_growth), the path and settings of a model step (model_step, at this count);
-    # the warm start's paths save their last accepted point next to the
-    # output, under the config's hash, and a rerun after an interruption resumes from it (E8
-    # 450-500: hours); checkpoints of another config are dropped
-    warm_kw = P.warm_start_kwargs(cfg, case, model, checkpoint_dir=str(checkpoint_dir(out, cfg)),
-                                  n_rev=kw.get("n_rev"))
-    t0 = time.perf_counter()
-    artifacts.clear_failures(out)
-
-    def wall_time(record):
-        """This run's wall time plus what its resumed paths spent in earlier, interrupted runs."""
-        return time.perf_counter() - t0 + resumed_wall_time(record)
-
-    def fail(exc, suffix):
-        artifacts.write_failure(artifacts.failure_path(out, suffix), exc, cfg, wall_time(exc.diagnosis))
-
+def solve(sm, cfg, case, model, tr, label, warm_kw, fail):
+    """The Newton solution of this job: (solution, artifact extra); a failure is written
+    (``fail``) and raised."""
     try:
         if sm.params.source == "chain":
             cc = cfg["cases"][case]
@@ -82,12 +55,58 @@ def main(sm):
     except ConvergenceError as exc:
         fail(exc, ".failure.json")
         raise
+    return sol, extra
+
+
+def main(sm):
+    cfg, case, model = sm.params.cfg, sm.params.case, sm.params.model
+    out = Path(sm.output[0])
+    eph = P.ephemeris_path(sm.params.results, cfg["cases"][case]["ephemeris"])
+    kw = {"ephemeris": eph}
+    if sm.rule == "perturbed_e6_date":
+        kw["epoch_utc"] = sm.params.epoch
+    if sm.rule == "perturbed_e8":
+        kw["n_rev"] = sm.params.n_rev
+    tr = P.transfer_from_config(cfg, case, model, **kw)
+    label = f"{case}/{model}" + (f"/{kw['epoch_utc'][:10]}" if "epoch_utc" in kw else "") + \
+        (f"/n{kw['n_rev']:g}" if "n_rev" in kw else "")
+    # perturbations switched on / the force model changed at a larger smoothing ε than ε_f
+    # (case options perturb_at_eps, model_step_at_eps), the continuation step rule
+    # (warm_step_growth), the path and settings of a model step (model_step, at this count);
+    # the warm start's paths save their last accepted point next to the
+    # output, under the config's hash, and a rerun after an interruption resumes from it (E8
+    # 450-500: hours); checkpoints of another config are dropped
+    ckdir = checkpoint_dir(out, cfg)
+    warm_kw = P.warm_start_kwargs(cfg, case, model, checkpoint_dir=str(ckdir), n_rev=kw.get("n_rev"))
+    t0 = time.perf_counter()
+    artifacts.clear_failures(out)
+
+    def wall_time(record):
+        """This run's wall time plus what its resumed paths spent in earlier, interrupted runs."""
+        return time.perf_counter() - t0 + resumed_wall_time(record)
+
+    def fail(exc, suffix):
+        artifacts.write_failure(artifacts.failure_path(out, suffix), exc, cfg, wall_time(exc.diagnosis))
+
+    # the Newton solution is kept until the free-time end game (numerics.tof_maximum) is done: an
+    # interrupted end game resumes from it (its continuation checkpoints are gone by then)
+    newton = ckdir / "free_time_start.json"
+    resumed = P.end_game_start(newton)
+    if resumed is not None:
+        sol, extra, before = resumed
+        print(f"[{label}] resumed from {newton}: the end game of an interrupted run", file=sys.stderr, flush=True)
+    else:
+        sol, extra = solve(sm, cfg, case, model, tr, label, warm_kw, fail)
+        before = resumed_wall_time(sol.stats)
+        if P.tof_maximum_settings(cfg, case) and tr.perturbed:
+            P.save(sol, newton, cfg, time.perf_counter() - t0 + before, extra,
+                   samples_per_rev=cfg["numerics"]["samples_per_rev"])
     # the local maximum of m_f in the time of flight next to the free-time extremal (numerics
     # tof_maximum): a free-time Newton also accepts degenerate points (E8 250, 500 rev)
     sol, record = P.maximise_in_tof(sol, cfg, case, label)
     if record is not None:
         extra["tof_maximum"] = record
-    P.save(sol, out, cfg, wall_time(sol.stats), extra,
+    P.save(sol, out, cfg, time.perf_counter() - t0 + before, extra,
            samples_per_rev=cfg["numerics"]["samples_per_rev"])
     shutil.rmtree(out.with_suffix(".checkpoints"), ignore_errors=True)   # solved: none needed
 

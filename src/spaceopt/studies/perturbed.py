@@ -37,7 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ConfigError, ConvergenceError
+from .. import artifacts
+from ..errors import ArtifactError, ConfigError, ConvergenceError
 from ..indirect import chain
 from ..indirect import hamiltonians as hm
 from ..indirect.chain import Solution
@@ -451,6 +452,19 @@ def maximise_in_tof(sol: Solution, pc: dict, case: str, label: str) -> tuple[Sol
 
 
 load = multirev.load     # rebuilds perturbed solutions too (model.perturbed in the artifact)
+
+
+def end_game_start(path) -> tuple[Solution, dict, float] | None:
+    """The free-time solution a solve saved (:func:`save`) before its end game, so that the end
+    game of an interrupted run resumes from it: (solution, artifact extra, the wall time spent on
+    it), or None where there is none or it does not read back (checksums)."""
+    if not Path(path).exists():
+        return None
+    try:
+        payload = artifacts.read_json(path)
+        return load(path), payload["extra"], float(payload["provenance"].get("wall_time_s") or 0.0)
+    except (ArtifactError, KeyError, OSError, ValueError):
+        return None
 
 
 def save(sol: Solution, json_path, cfg: dict, wall_time_s: float, extra: dict | None = None,
