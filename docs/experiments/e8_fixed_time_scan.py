@@ -24,6 +24,8 @@ joins the unknowns at 0), started at its Δt, UP steps of STEP_DAYS upwards, the
 ``job``: the DAG's E8 job (MODEL, N) as ``e8_valley_scan.job_problem`` builds it, started at a
 failed end point: a failure JSON's z, or an .npz whose x0 is a valley point there.
 ``refine``: closes the first bracket in OUT where φ turns from − to + (a local maximum of m_f).
+The library's end game (``spaceopt.indirect.free_time``, twenty-second session) does the
+search of a local maximum itself; this script scans a range and keeps every point.
 One fixed-time point costs 2–5 Jacobians: 7 s on E5, ~2 min at 250 revolutions.
 """
 from __future__ import annotations
@@ -33,54 +35,21 @@ import json
 import sys
 import time
 
-import jax.numpy as jnp
 import numpy as np
 import yaml
 
 from spaceopt.errors import ArtifactError
 from spaceopt.indirect import hamiltonians as hm
-from spaceopt.indirect.flow import params_at, propagate
-from spaceopt.indirect.shooting import initial_state, residual, shoot
+from spaceopt.indirect.free_time import FixedTimeFamily, MaximumOptions
 from spaceopt.studies import multirev
 
 DAY = 86400.0
-TOL = 3e-8           # |f| of an accepted fixed-time point, the time row excepted (the DAG's E8
-                     # extremals end at |F| 1.6e-8 … 4e-8; with rtol 1e-11 Newton jitters at
-                     # 2e-9 over 250 revolutions, at 1e-8 … 4e-8 over 450)
-TIME_RTOL = 1e-8     # the time row relative to t_f: t(K_f) carries the integration error, rtol
-                     # 1e-11 of ~1000 time units (E8 250 rev: Newton jitters at 4e-8 … 5e-7 there,
-                     # and converges only linearly in it)
-MAX_NEWTON = 12      # E8 500, 0.05 d from the 321.13-d extremal: 9 Jacobians (a near-fold)
 PHI_TOL = 1e-8       # |φ| that ends a refinement (the free-time polish accepts |F| 1e-8 … 4e-8)
 
 
-def end_state(sh, z, prm):
-    """y(K_f) at τ = 1 with the end-point tolerances."""
-    y0 = initial_state(sh, jnp.asarray(z), params_at(sh.model, prm, 1.0))
-    yf, _, ok = propagate(sh.model, y0, z[sh.kf_index], 1.0, prm, sh.rtol, sh.atol, sh.max_steps)
-    if not ok:
-        raise RuntimeError("propagation failed")
-    return np.asarray(yf)
-
-
-def newton(sh, z, prm):
-    """Newton on the fixed-time residual from z: (z, J at the last evaluation, |f| of the rows but
-    the time row, Jacobians)."""
-    for k in range(1, MAX_NEWTON + 1):
-        f, J, _, _, ok = shoot(sh, jnp.asarray(z), 1.0, prm)
-        f, J = np.asarray(f), np.asarray(J)
-        nf = float(np.linalg.norm(f[:-1]))
-        if not ok or not np.isfinite(nf):
-            raise RuntimeError("propagation failed in Newton")
-        print(f"    newton {k}: |f| {nf:.3e}  rows {np.array2string(np.abs(f), precision=1)}", flush=True)
-        if nf < TOL and abs(f[-1]) < TIME_RTOL * float(prm["tf"]):
-            return z, J, nf, k
-        z = z + np.linalg.solve(J, -f)
-    raise RuntimeError(f"Newton did not converge (|f| {nf:.2e} after {MAX_NEWTON} Jacobians)")
-
-
 class Family:
-    """The fixed-time problems of one free-time problem (sh_free, prm0): solve one t_f, log it."""
+    """The fixed-time problems of one free-time problem (sh_free, prm0): solve one t_f, log it.
+    The solves are the library's (``free_time.FixedTimeFamily``, its default tolerances)."""
 
     def __init__(self, sh_free, prm0, z0, tu, m0, out):
         z0 = np.asarray(z0, float)
@@ -89,27 +58,26 @@ class Family:
             free = tuple(sorted((*sh_free.free_costates, hm.TIME)))
             z0 = np.insert(z0, free.index(hm.TIME), 0.0)
             sh_free = dataclasses.replace(sh_free, free_costates=free)
-        self.sh_free, self.sh = sh_free, dataclasses.replace(sh_free, fixed_time=True)
-        self.prm0, self.z0, self.tu, self.m0, self.out = prm0, z0, tu, m0, out
-        self.t0 = float(end_state(self.sh, z0, prm0)[hm.TIME])
-        self.e_t = np.zeros(self.sh.size)
-        self.e_t[-1] = 1.0       # the last row: t(K_f) − t_f (p_t(K_f) in the free-time layout)
+        self.family = FixedTimeFamily(sh_free, prm0, MaximumOptions())
+        self.sh_free, self.prm0 = sh_free, prm0
+        self.z0, self.tu, self.m0, self.out = z0, tu, m0, out
+        self.t0 = self.family.end_time(z0)
+        self.e_t = self.family.e_t
 
     def point(self, z, tf):
         """The fixed-time extremal at t_f from the start z: (z, J, its record)."""
-        prm = {**self.prm0, "tf": jnp.asarray(tf)}
-        w = time.perf_counter()
-        z, J, nf, jac = newton(self.sh, z, prm)
-        yf = end_state(self.sh, z, prm)
-        rec = {"tf_days": tf * self.tu / DAY, "m_f_kg": float(yf[hm.MASS]) * self.m0,
-               "phi_pt_Kf": float(yf[self.sh.model.n + hm.TIME]),
-               "K_f_deg": float(np.degrees(z[self.sh.kf_index])), "residual": nf, "jacobians": jac,
-               "wall_s": time.perf_counter() - w, "z": z.tolist()}
+        w, jac = time.perf_counter(), self.family.jacobians
+        p = self.family.point(tf, z)
+        if p is None:
+            raise RuntimeError(f"fixed-time Newton failed at t_f {tf * self.tu / DAY:.5f} d")
+        rec = {"tf_days": tf * self.tu / DAY, "m_f_kg": p.m_f * self.m0, "phi_pt_Kf": p.phi,
+               "K_f_deg": float(np.degrees(p.z[self.sh_free.kf_index])),
+               "jacobians": self.family.jacobians - jac, "wall_s": time.perf_counter() - w, "z": p.z.tolist()}
         with open(self.out, "a") as fh:
             fh.write(json.dumps(rec) + "\n")
         print(f"t_f {rec['tf_days']:.4f} d  m_f {rec['m_f_kg']:.6f} kg  phi {rec['phi_pt_Kf']:+.4e}  "
-              f"|f| {nf:.1e}  jac {jac}  {rec['wall_s']:.0f} s", flush=True)
-        return z, J, rec
+              f"jac {rec['jacobians']}  {rec['wall_s']:.0f} s", flush=True)
+        return p.z, p.J, rec
 
 
 def scan(fam, step_days, up, down):
@@ -148,9 +116,9 @@ def refine(fam, days_tol):
             fa *= 0.5 if last == "hi" else 1.0
             last = "hi"
     best = min(lo, hi, key=lambda r: abs(r["phi_pt_Kf"]))
-    f = np.asarray(residual(fam.sh_free, jnp.asarray(best["z"]), 1.0, fam.prm0)[0])
     print(f"free-time extremal: t_f {best['tf_days']:.6f} d, m_f {best['m_f_kg']:.6f} kg "
-          f"(m_p {fam.m0 - best['m_f_kg']:.6f} kg), free-time |F| {np.linalg.norm(f):.2e}", flush=True)
+          f"(m_p {fam.m0 - best['m_f_kg']:.6f} kg), free-time max |F| "
+          f"{fam.family.free_time_residual(best['z']):.2e}", flush=True)
 
 
 def predict(zs, J, dtf_e_t):
