@@ -25,7 +25,7 @@ class ModelFamily:
         self.e_t = np.array([0.0, 1.0])
         self.calls = []
 
-    def point(self, tf, z):
+    def point(self, tf, z, J=None):
         self.calls.append(tf)
         if tf > self.fails_above:
             return None

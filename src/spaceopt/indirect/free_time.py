@@ -65,6 +65,7 @@ class MaximumOptions:
     # 1e-8 … 4e-8 over 450, rtol 1e-11)
     time_rtol: float = 1e-8         # |t(K_f) − t_f| relative to t_f (t(K_f) carries the integration error)
     max_newton: int = 12            # Jacobians per fixed-time point (E8 500 near a fold: 9)
+    chord_steps: int = 3            # steps per Jacobian after its Newton step (FixedTimeFamily.point); 0: Newton
     verbose: bool = True
     label: str = ""
 
@@ -88,7 +89,7 @@ class FixedTimeFamily:
             raise ValueError("the fixed-time family needs a free-time problem with p_t among its unknowns")
         self.sh_free, self.sh = sh, dataclasses.replace(sh, fixed_time=True)
         self.prm, self.opt = prm, opt
-        self.jacobians = self.solves = 0
+        self.jacobians = self.residuals = self.solves = 0
         self.e_t = np.zeros(sh.size)
         self.e_t[sh.residual_names().index("p_t(K_f)")] = 1.0     # the row t(K_f) − t_f
 
@@ -99,29 +100,60 @@ class FixedTimeFamily:
             raise ValueError("the propagation of the free-time solution failed")
         return float(yf[hm.TIME])
 
-    def point(self, tf: float, z) -> FixedTimePoint | None:
-        """The fixed-time extremal at ``tf`` by Newton from ``z``; None where Newton fails
-        (``max_newton`` Jacobians, a failed propagation or a growing residual)."""
+    def point(self, tf: float, z, J=None) -> FixedTimePoint | None:
+        """The fixed-time extremal at ``tf`` from ``z``; None where it fails (``max_newton``
+        Jacobians, or a Newton step that grows |f| tenfold).
+
+        Newton's method with chord steps: a Jacobian serves up to ``chord_steps`` further steps
+        z ← z − J⁻¹f(z), each costing a residual without sensitivities (a sixth of a Jacobian at
+        E8 250 rev), while each at least halves |f|; where one does not, the Jacobian is
+        evaluated afresh at the best point so far. A Newton step (right after a fresh Jacobian)
+        that does not halve |f| is kept, and the next Jacobian is evaluated at its point.
+        ``J``: a neighbour's Jacobian, whose chord steps start the solve."""
         opt, prm = self.opt, {**self.prm, "tf": jnp.asarray(tf)}
         self.solves += 1
-        z, last = np.asarray(z, float), np.inf
-        for _ in range(opt.max_newton):
-            f, J, _, _, ok = shoot(self.sh, jnp.asarray(z), 1.0, prm)
-            self.jacobians += 1
-            f, J = np.asarray(f), np.asarray(J)
-            rows = self.e_t == 0
-            nf = float(np.linalg.norm(f[rows]))
-            if not ok or not np.all(np.isfinite(f)) or nf > 10.0 * last:
-                return None
-            if nf <= opt.newton_tol and abs(f[~rows][0]) <= opt.time_rtol * abs(tf):
-                yf, ok = final_state(self.sh, jnp.asarray(z), 1.0, prm)
-                if not ok:
+        z, rows, J = np.asarray(z, float), self.e_t == 0, J if opt.chord_steps > 0 else None
+        best_nf, best_z = np.inf, z
+        jacobians, uses, fresh, newton_step, n_from = 0, 0, False, False, np.inf     # n_from: |f| where the last step began
+        while True:
+            if J is None:
+                if jacobians >= opt.max_newton:
                     return None
-                yf = np.asarray(yf)
-                return FixedTimePoint(tf, z, J, float(yf[hm.MASS]), float(yf[self.sh.model.n + hm.TIME]))
-            last = nf
-            z = z + np.linalg.solve(J, -f)
-        return None
+                f, J, _, _, ok = shoot(self.sh, jnp.asarray(z), 1.0, prm)
+                J, jacobians, uses, fresh = np.asarray(J), jacobians + 1, 0, True
+                self.jacobians += 1
+            else:
+                f, ok = residual(self.sh, jnp.asarray(z), 1.0, prm)
+                self.residuals += 1
+            f = np.asarray(f)
+            nf = float(np.linalg.norm(f[rows])) if ok and np.all(np.isfinite(f)) else np.inf
+            if nf <= opt.newton_tol and abs(f[~rows][0]) <= opt.time_rtol * abs(tf):
+                return self._point(tf, z, J, prm)
+            if not nf <= 0.5 * n_from:              # the last step did not halve |f|
+                if newton_step and not nf <= 10.0 * n_from:
+                    return None                     # Newton diverges
+                if (newton_step or fresh) and nf <= 10.0 * n_from:
+                    if not fresh:                   # Newton's iteration: the next Jacobian here
+                        J, n_from = None, np.inf
+                        continue
+                else:                               # a chord step: a fresh Jacobian at the best point
+                    z, J, n_from = best_z, None, np.inf
+                    continue
+            if nf < best_nf:
+                best_nf, best_z = nf, z
+            newton_step, fresh, n_from = fresh, False, nf
+            z = z - np.linalg.solve(J, f)
+            uses += 1
+            if uses > opt.chord_steps:
+                J = None
+
+    def _point(self, tf, z, J, prm) -> FixedTimePoint | None:
+        """The converged fixed-time extremal at z: its final mass and φ = p_t(K_f)."""
+        yf, ok = final_state(self.sh, jnp.asarray(z), 1.0, prm)
+        if not ok:
+            return None
+        yf = np.asarray(yf)
+        return FixedTimePoint(tf, z, J, float(yf[hm.MASS]), float(yf[self.sh.model.n + hm.TIME]))
 
     def free_time_residual(self, z) -> float:
         """max |f| of the free-time shooting map at z (τ = 1)."""
@@ -155,8 +187,10 @@ class MaximumSearch:
     def days(self, tf) -> float:
         return tf * self.tu / DAY
 
-    def solve(self, tf, start) -> FixedTimePoint | None:
-        p = self.family.point(tf, start)
+    def solve(self, tf, start, near: FixedTimePoint | None = None) -> FixedTimePoint | None:
+        """The fixed-time point at ``tf`` from ``start``, its chord steps with the Jacobian of the
+        solved point ``near``; logged, and kept in ``points``."""
+        p = self.family.point(tf, start, None if near is None else near.J)
         if p is None:
             self.log(f"  t_f {self.days(tf):.5f} d: fixed-time Newton failed")
             return None
@@ -179,7 +213,7 @@ class MaximumSearch:
     def bracket(self, origin: FixedTimePoint):
         """(left, right) solved points with φ(left) < 0 < φ(right), left.tf < right.tf, or a
         reason string where none was found."""
-        probes = [self.solve(origin.tf + s * self.delta, self.extrapolate([origin], origin.tf + s * self.delta))
+        probes = [self.solve(origin.tf + s * self.delta, self.extrapolate([origin], origin.tf + s * self.delta), origin)
                   for s in (-1.0, 1.0)]
         if any(p is None for p in probes):
             return "a probe at t_f +/- probe_days did not converge"
@@ -198,7 +232,7 @@ class MaximumSearch:
         while len(self.points) < self.opt.max_points:
             last = trail[-1]
             tf = last.tf + direction * h
-            p = self.solve(tf, self.extrapolate(trail, tf))
+            p = self.solve(tf, self.extrapolate(trail, tf), last)
             if p is None:
                 if h <= self.delta / 8:
                     return f"the fixed-time family could not be followed past t_f {self.days(last.tf):.5f} d"
@@ -214,7 +248,8 @@ class MaximumSearch:
         inside = lambda: [q for q in self.points if left.tf <= q.tf <= right.tf]
 
         def phi(tf):
-            p = next((q for q in self.points if q.tf == tf), None) or self.solve(tf, _interpolate(inside(), tf))
+            p = next((q for q in self.points if q.tf == tf), None) or \
+                self.solve(tf, _interpolate(inside(), tf), min(inside(), key=lambda q: abs(q.tf - tf)))
             if p is None:
                 raise _NewtonFailed(tf)
             return p.phi
@@ -263,6 +298,7 @@ def maximise_final_mass(sol, options: MaximumOptions | None = None):
                    "points": [[search.days(p.tf), p.m_f * tr.m0, p.phi]
                               for p in sorted(search.points, key=lambda p: p.tf)],
                    "fixed_time_solves": family.solves, "jacobian_evaluations": family.jacobians,
+                   "residual_evaluations": family.residuals,
                    "free_time_residual": family.free_time_residual(out.z),
                    "wall_time_s": time.perf_counter() - start})
     search.log(f"free-time end game: {status}" + (
