@@ -17,17 +17,18 @@ QUIET = ContinuationOptions(verbose=False)
 
 class ModelFamily:
     """A fixed-time family with z = (t_f, 0) and a given φ(t_f); ``fails_above``: Newton fails
-    there. m_f is φ's antiderivative with a minus sign (the envelope relation dm_f/dt_f = −φ)."""
+    there; ``fails_once``: at these t_f the first solve fails. m_f is φ's antiderivative with a minus sign (the envelope relation dm_f/dt_f = −φ)."""
 
-    def __init__(self, phi, mass, fails_above=np.inf, probe_days=1.0):
-        self.phi, self.mass, self.fails_above = phi, mass, fails_above
+    def __init__(self, phi, mass, fails_above=np.inf, probe_days=1.0, fails_once=()):
+        self.phi, self.mass, self.fails_above, self.fails_once = phi, mass, fails_above, set(fails_once)
         self.opt = ft.MaximumOptions(probe_days=probe_days, tof_tol_days=1e-9, verbose=False)
         self.e_t = np.array([0.0, 1.0])
         self.calls = []
 
     def point(self, tf, z, J=None):
         self.calls.append(tf)
-        if tf > self.fails_above:
+        if tf > self.fails_above or tf in self.fails_once:
+            self.fails_once.discard(tf)
             return None
         return ft.FixedTimePoint(tf, np.array([tf, 0.0]), np.eye(2), self.mass(tf), self.phi(tf))
 
@@ -67,6 +68,15 @@ def test_from_a_local_minimum_the_heavier_side_is_taken():
     fam = ModelFamily(phi, mass, probe_days=0.3)
     s, (left, right), best = search(fam, 2.0)
     assert abs(best.tf - 3.5) < 1e-8 and left.phi < 0 < right.phi
+
+
+def test_a_probe_that_fails_is_retried_closer_and_the_march_goes_on_from_it():
+    """Newton fails at the probe t₀ + δ (the E8 500 degenerate point, where the family bends):
+    the probe is taken at δ/2, and the march starts from there with that spacing."""
+    fam = ModelFamily(lambda t: t - 2.0, lambda t: -0.5 * (t - 2.0) ** 2, probe_days=0.3, fails_once={1.3})
+    s, (left, right), best = search(fam, 1.0)
+    assert abs(best.tf - 2.0) < 1e-8 and left.phi < 0 < right.phi
+    assert fam.calls[:4] == [1.0, 0.7, 1.3, 1.15] and fam.calls[4] == pytest.approx(1.3)
 
 
 def test_a_family_that_cannot_be_followed_is_reported_not_forced():

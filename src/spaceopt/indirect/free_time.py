@@ -19,8 +19,8 @@ scale, against a slope of 2.35e-7 per 0.1 d unperturbed), so that its polish, wh
 :func:`maximise_final_mass` takes a converged perturbed free-time solution and
 
 1. solves the fixed-time extremal at its own t_f = t(K_f) (Newton from its z);
-2. probes t_f ± δ (``probe_days``); a local maximum lies between them where φ(t_f − δ) < 0 <
-   φ(t_f + δ);
+2. probes t_f ± δ (``probe_days``; δ/2 … δ/8 where Newton fails at δ); a local maximum lies
+   between them where φ(t_f − δ) < 0 < φ(t_f + δ);
 3. otherwise marches uphill in m_f (towards −sign φ, from the probe with the larger m_f) by
    steps δ, each start extrapolated through the last solutions in t_f, the step halved where
    Newton fails (to δ/8), until φ turns from − to +;
@@ -213,10 +213,9 @@ class MaximumSearch:
     def bracket(self, origin: FixedTimePoint):
         """(left, right) solved points with φ(left) < 0 < φ(right), left.tf < right.tf, or a
         reason string where none was found."""
-        probes = [self.solve(origin.tf + s * self.delta, self.extrapolate([origin], origin.tf + s * self.delta), origin)
-                  for s in (-1.0, 1.0)]
+        probes = [self.probe(origin, s) for s in (-1.0, 1.0)]
         if any(p is None for p in probes):
-            return "a probe at t_f +/- probe_days did not converge"
+            return "a probe at t_f +/- probe_days (down to probe_days/8) did not converge"
         lo, hi = probes
         if lo.phi < 0.0 < hi.phi:
             return (origin, hi) if origin.phi < 0.0 else (lo, origin)
@@ -225,10 +224,22 @@ class MaximumSearch:
             return self.march([origin, lo], -1.0)
         return self.march([origin, hi], +1.0)
 
-    def march(self, trail: list[FixedTimePoint], direction: float):
-        """From the last point of ``trail`` in ``direction`` by steps δ (halved where Newton fails,
-        down to δ/8, and kept), until φ turns from − to + (as t_f grows)."""
+    def probe(self, origin: FixedTimePoint, sign: float) -> FixedTimePoint | None:
+        """The fixed-time point at t_f + sign δ, started along the origin's tangent; where Newton
+        fails there, at δ/2, δ/4, δ/8 (E8 500 from the degenerate point: the family bends)."""
         h = self.delta
+        while True:
+            tf = origin.tf + sign * h
+            p = self.solve(tf, self.extrapolate([origin], tf), origin)
+            if p is not None or h <= self.delta / 8:
+                return p
+            h *= 0.5
+
+    def march(self, trail: list[FixedTimePoint], direction: float):
+        """From the last point of ``trail`` in ``direction`` by steps of the trail's last spacing
+        (at most δ; halved where Newton fails, down to δ/8, and kept), until φ turns from − to +
+        (as t_f grows)."""
+        h = min(self.delta, abs(trail[-1].tf - trail[-2].tf))
         while len(self.points) < self.opt.max_points:
             last = trail[-1]
             tf = last.tf + direction * h
