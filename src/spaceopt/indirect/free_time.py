@@ -104,17 +104,19 @@ class FixedTimeFamily:
         """The fixed-time extremal at ``tf`` from ``z``; None where it fails (``max_newton``
         Jacobians, or a Newton step that grows |f| tenfold).
 
-        Newton's method with chord steps: a Jacobian serves up to ``chord_steps`` further steps
-        z ← z − J⁻¹f(z), each costing a residual without sensitivities (a sixth of a Jacobian at
-        E8 250 rev), while each at least halves |f|; where one does not, the Jacobian is
-        evaluated afresh at the best point so far. A Newton step (right after a fresh Jacobian)
-        that does not halve |f| is kept, and the next Jacobian is evaluated at its point.
+        Newton's method with chord steps (Shamanskii): after each Newton step the same Jacobian
+        serves up to ``chord_steps`` chord steps z ← z − J⁻¹f(z), each costing a residual
+        without sensitivities (a sixth of a Jacobian at E8 250 rev). A chord step that does not
+        halve |f| ends them: the next Jacobian is evaluated at its point where it lowered |f|,
+        else at the point it started from; after a Newton step that does not halve |f|, at its
+        point (Newton's iteration). Every Jacobian is thus evaluated at a new point
+        (going back to the best point instead, E8 500 cycled between the same two Newton steps).
         ``J``: a neighbour's Jacobian, whose chord steps start the solve."""
         opt, prm = self.opt, {**self.prm, "tf": jnp.asarray(tf)}
         self.solves += 1
         z, rows, J = np.asarray(z, float), self.e_t == 0, J if opt.chord_steps > 0 else None
-        best_nf, best_z = np.inf, z
-        jacobians, uses, fresh, newton_step, n_from = 0, 0, False, False, np.inf     # n_from: |f| where the last step began
+        jacobians, uses, fresh, newton_step = 0, 0, False, False
+        z_from, n_from = z, np.inf                  # where the last step began, and its |f|
         while True:
             if J is None:
                 if jacobians >= opt.max_newton:
@@ -129,19 +131,14 @@ class FixedTimeFamily:
             nf = float(np.linalg.norm(f[rows])) if ok and np.all(np.isfinite(f)) else np.inf
             if nf <= opt.newton_tol and abs(f[~rows][0]) <= opt.time_rtol * abs(tf):
                 return self._point(tf, z, J, prm)
-            if not nf <= 0.5 * n_from:              # the last step did not halve |f|
-                if newton_step and not nf <= 10.0 * n_from:
-                    return None                     # Newton diverges
-                if (newton_step or fresh) and nf <= 10.0 * n_from:
-                    if not fresh:                   # Newton's iteration: the next Jacobian here
-                        J, n_from = None, np.inf
-                        continue
-                else:                               # a chord step: a fresh Jacobian at the best point
-                    z, J, n_from = best_z, None, np.inf
-                    continue
-            if nf < best_nf:
-                best_nf, best_z = nf, z
-            newton_step, fresh, n_from = fresh, False, nf
+            if newton_step and not nf <= 10.0 * n_from:
+                return None                         # Newton diverges
+            if not fresh and not nf <= 0.5 * n_from:
+                if not newton_step and not nf < n_from:
+                    z = z_from                      # a chord step that did not lower |f|: undone
+                J, n_from, newton_step = None, np.inf, False     # a fresh Jacobian here
+                continue
+            newton_step, fresh, z_from, n_from = fresh, False, z, nf
             z = z - np.linalg.solve(J, f)
             uses += 1
             if uses > opt.chord_steps:
