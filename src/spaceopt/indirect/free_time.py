@@ -36,8 +36,9 @@ The fixed-time extremal at that root satisfies every free-time row but p_t(K_f),
 there. Where no bracket is found within ``max_points`` fixed-time solves, the solution is
 returned unchanged and the record says so. Each fixed-time solve is Newton's method with chord
 steps, the Jacobian of the neighbouring solved point first (:meth:`FixedTimeFamily.point`;
-E8 250 from the inflection: 7 Jacobians and 45 residuals against 30 Jacobians, half the wall
-time, ``benchmarks/free_time.py``). The Newton iterations and the march are written by hand:
+E8 250 from the inflection: 7 Jacobians and 45 residuals, about 13.5 Jacobians' worth,
+against 30 Jacobians; wall ratio 0.50 and 0.75 in two side-by-side runs on a shared machine,
+``benchmarks/free_time.py``). The Newton iterations and the march are written by hand:
 each value of the one-dimensional function φ is a Newton solve warm-started from its
 neighbours, a state that the bracketing solvers of scipy and optimistix do not carry between
 their evaluations.
