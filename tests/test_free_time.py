@@ -150,8 +150,7 @@ def test_from_a_fixed_time_point_off_the_maximum_the_march_returns_to_it(perturb
     sol, opt, (_, rec) = perturbed_e1
     family = ft.FixedTimeFamily(sol.shooting, sol.prm, opt)
     tf = (rec["t0_days"] + 0.035) * ft.DAY / sol.transfer.tu
-    off = family.point(tf, ft.MaximumSearch(family, sol.transfer.tu, 1.0).extrapolate(
-        [family.point(family.end_time(sol.z), sol.z)], tf))
+    off = family.point(tf, ft.extrapolate([family.point(family.end_time(sol.z), sol.z)], tf, family.e_t))
     assert off is not None and off.phi > 0
     out, rec_off = ft.maximise_final_mass(dataclasses.replace(sol, z=off.z), opt)
     assert rec_off["status"] == "maximum" and rec_off["m_f_gain_kg"] > 0

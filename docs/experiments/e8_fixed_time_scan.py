@@ -40,7 +40,7 @@ import yaml
 
 from spaceopt.errors import ArtifactError
 from spaceopt.indirect import hamiltonians as hm
-from spaceopt.indirect.free_time import FixedTimeFamily, MaximumOptions
+from spaceopt.indirect.free_time import FixedTimeFamily, MaximumOptions, extrapolate
 from spaceopt.studies import multirev
 
 DAY = 86400.0
@@ -65,7 +65,7 @@ class Family:
         self.e_t = self.family.e_t
 
     def point(self, z, tf):
-        """The fixed-time extremal at t_f from the start z: (z, J, its record)."""
+        """The fixed-time extremal at t_f from the start z: (the library's point, its record)."""
         w, jac = time.perf_counter(), self.family.jacobians
         p = self.family.point(tf, z)
         if p is None:
@@ -77,20 +77,22 @@ class Family:
             fh.write(json.dumps(rec) + "\n")
         print(f"t_f {rec['tf_days']:.4f} d  m_f {rec['m_f_kg']:.6f} kg  phi {rec['phi_pt_Kf']:+.4e}  "
               f"jac {rec['jacobians']}  {rec['wall_s']:.0f} s", flush=True)
-        return p.z, p.J, rec
+        return p, rec
 
 
 def scan(fam, step_days, up, down):
     """The family through its start (at the start's own t(K_f)): UP steps of STEP_DAYS upwards,
     then DOWN steps downwards from the start."""
-    z_start, J_start, _ = fam.point(fam.z0, fam.t0)
+    start, _ = fam.point(fam.z0, fam.t0)
     dtf = step_days * DAY / fam.tu
     for sign, count in ((+1, up), (-1, down)):
-        zs, J, tf = [z_start], J_start, fam.t0
+        # each start: the library's extrapolation (the tangent from the first point, then the
+        # polynomial through the last solutions; the family bends: from the 250-rev extremal
+        # the tangent step of 0.1 d misses t_f by 0.29 time units of 0.315)
+        trail, tf = [start], fam.t0
         for _ in range(count):
             tf += sign * dtf
-            z, J, _ = fam.point(predict(zs, J, fam.e_t * sign * dtf), tf)
-            zs.append(z)
+            trail.append(fam.point(extrapolate(trail, tf, fam.e_t), tf)[0])
 
 
 def refine(fam, days_tol):
@@ -103,7 +105,7 @@ def refine(fam, days_tol):
     while hi["tf_days"] - lo["tf_days"] > days_tol and min(-fa, fb) > 0:
         w = fa / (fa - fb)
         tf_days = lo["tf_days"] + w * (hi["tf_days"] - lo["tf_days"])
-        _, _, rec = fam.point((1 - w) * np.asarray(lo["z"]) + w * np.asarray(hi["z"]), tf_days * DAY / fam.tu)
+        _, rec = fam.point((1 - w) * np.asarray(lo["z"]) + w * np.asarray(hi["z"]), tf_days * DAY / fam.tu)
         if abs(rec["phi_pt_Kf"]) < PHI_TOL:
             lo = hi = rec
             break
@@ -119,17 +121,6 @@ def refine(fam, days_tol):
     print(f"free-time extremal: t_f {best['tf_days']:.6f} d, m_f {best['m_f_kg']:.6f} kg "
           f"(m_p {fam.m0 - best['m_f_kg']:.6f} kg), free-time max |F| "
           f"{fam.family.free_time_residual(best['z']):.2e}", flush=True)
-
-
-def predict(zs, J, dtf_e_t):
-    """The next start at equal t_f steps: the tangent J⁻¹ e_t Δt_f from the first point, then
-    the polynomial through the last two or three solutions (the family bends: from the 250-rev
-    extremal the tangent step of 0.1 d misses t_f by 0.29 time units of 0.315)."""
-    if len(zs) == 1:
-        return zs[0] + np.linalg.solve(J, dtf_e_t)
-    if len(zs) == 2:
-        return 2 * zs[-1] - zs[-2]
-    return 3 * zs[-1] - 3 * zs[-2] + zs[-3]
 
 
 def load(path):

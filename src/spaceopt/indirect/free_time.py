@@ -54,10 +54,9 @@ import jax.numpy as jnp
 import numpy as np
 from scipy.optimize import brentq
 
+from ..constants import DAY
 from . import hamiltonians as hm
 from .shooting import final_state, residual, shoot
-
-DAY = 86400.0
 
 
 @dataclass
@@ -173,6 +172,20 @@ def _interpolate(points: list[FixedTimePoint], tf: float) -> np.ndarray:
     return (1.0 - w) * below.z + w * above.z
 
 
+def extrapolate(trail: list[FixedTimePoint], tf: float, e_t: np.ndarray) -> np.ndarray:
+    """The start at ``tf`` beyond the solved ``trail``: the polynomial in t_f through its last
+    (up to three) points; from a single point its tangent dz/dt_f = J⁻¹ e_t (∂f/∂t_f = −e_t,
+    ``e_t`` the time row)."""
+    if len(trail) == 1:
+        p = trail[0]
+        return p.z + np.linalg.solve(p.J, e_t) * (tf - p.tf)
+    pts = trail[-3:]
+    z = np.zeros_like(pts[0].z)
+    for i, p in enumerate(pts):          # Lagrange weights in t_f
+        z = z + np.prod([(tf - q.tf) / (p.tf - q.tf) for j, q in enumerate(pts) if j != i]) * p.z
+    return z
+
+
 class MaximumSearch:
     """Steps 2–4 of the module docstring on one family; ``points`` holds every solved point."""
 
@@ -200,22 +213,10 @@ class MaximumSearch:
         self.log(f"  t_f {self.days(tf):.5f} d: m_f {p.m_f * self.m0:.6f} kg, phi {p.phi:+.3e}")
         return p
 
-    def extrapolate(self, trail: list[FixedTimePoint], tf: float) -> np.ndarray:
-        """The start at ``tf`` beyond the solved ``trail``: the polynomial in t_f through its last
-        (up to three) points; from a single point its tangent dz/dt_f = J⁻¹ e_t (∂f/∂t_f = −e_t)."""
-        if len(trail) == 1:
-            p = trail[0]
-            return p.z + np.linalg.solve(p.J, self.family.e_t) * (tf - p.tf)
-        pts = trail[-3:]
-        z = np.zeros_like(pts[0].z)
-        for i, p in enumerate(pts):          # Lagrange weights in t_f
-            z = z + np.prod([(tf - q.tf) / (p.tf - q.tf) for j, q in enumerate(pts) if j != i]) * p.z
-        return z
-
     def bracket(self, origin: FixedTimePoint):
         """(left, right) solved points with φ(left) < 0 < φ(right), left.tf < right.tf, or a
         reason string where none was found."""
-        probes = [self.probe(origin, s) for s in (-1.0, 1.0)]
+        probes = [self.advance([origin], s, self.delta)[0] for s in (-1.0, 1.0)]
         if any(p is None for p in probes):
             return "a probe at t_f +/- probe_days (down to probe_days/8) did not converge"
         lo, hi = probes
@@ -226,15 +227,15 @@ class MaximumSearch:
             return self.march([origin, lo], -1.0)
         return self.march([origin, hi], +1.0)
 
-    def probe(self, origin: FixedTimePoint, sign: float) -> FixedTimePoint | None:
-        """The fixed-time point at t_f + sign δ, started along the origin's tangent; where Newton
-        fails there, at δ/2, δ/4, δ/8 (E8 500 from the degenerate point: the family bends)."""
-        h = self.delta
+    def advance(self, trail: list[FixedTimePoint], direction: float, h: float):
+        """The fixed-time point a step ``direction`` h beyond the last of ``trail``, started by
+        :func:`extrapolate`; where Newton fails, at h/2, h/4, … down to δ/8 (E8 500 from the
+        degenerate point: the family bends): (the point or None, the step it took)."""
         while True:
-            tf = origin.tf + sign * h
-            p = self.solve(tf, self.extrapolate([origin], tf), origin)
+            tf = trail[-1].tf + direction * h
+            p = self.solve(tf, extrapolate(trail, tf, self.family.e_t), trail[-1])
             if p is not None or h <= self.delta / 8:
-                return p
+                return p, h
             h *= 0.5
 
     def march(self, trail: list[FixedTimePoint], direction: float):
@@ -244,13 +245,9 @@ class MaximumSearch:
         h = min(self.delta, abs(trail[-1].tf - trail[-2].tf))
         while len(self.points) < self.opt.max_points:
             last = trail[-1]
-            tf = last.tf + direction * h
-            p = self.solve(tf, self.extrapolate(trail, tf), last)
+            p, h = self.advance(trail, direction, h)
             if p is None:
-                if h <= self.delta / 8:
-                    return f"the fixed-time family could not be followed past t_f {self.days(last.tf):.5f} d"
-                h *= 0.5
-                continue
+                return f"the fixed-time family could not be followed past t_f {self.days(last.tf):.5f} d"
             trail.append(p)
             if np.sign(p.phi) != np.sign(last.phi):
                 return (last, p) if direction > 0 else (p, last)
