@@ -32,6 +32,41 @@ class ModelFamily:
             return None
         return ft.FixedTimePoint(tf, np.array([tf, 0.0]), np.eye(2), self.mass(tf), self.phi(tf))
 
+    def correct(self, x_pred, border=None, J=None):
+        """The arclength corrector: this family is t_f itself, a step fails where Newton does."""
+        return self.point(x_pred[-1], x_pred[:-1], J)
+
+    def tangent(self, p):
+        return np.array([1.0, 0.0, 1.0])
+
+
+class FoldFamily(ft.FixedTimeFamily):
+    """A family that folds in t_f, solved by the library's own corrector: z = (u, w),
+    F(z, t_f) = (w − u², −w − t_f), the time row second (as p_t(K_f) ↦ t(K_f) − t_f) and the
+    nonlinear row first (the time row is left out of the corrector's |f|). Its points are
+    w = u², t_f = −u²: two branches u < 0 and u > 0 for t_f < 0, none above, the fold at u = 0
+    where ∂F/∂z is singular. φ(u) is given and m_f(u) = −∫ φ dt_f/du du (the envelope relation
+    along the family)."""
+
+    def __init__(self, phi, mass, probe_days=0.04):
+        self.opt = ft.MaximumOptions(probe_days=probe_days, tof_tol_days=1e-9, verbose=False)
+        self.phi_of, self.mass_of = phi, mass
+        self.e_t = np.array([0.0, 1.0])
+        self.jacobians = self.residuals = self.solves = 0
+
+    def evaluate(self, z, tf, jacobian):
+        u, w = z
+        self.residuals += not jacobian
+        self.jacobians += jacobian
+        J = np.array([[-2.0 * u, 1.0], [0.0, -1.0]]) if jacobian else None
+        return np.array([w - u * u, -w - tf]), J, True
+
+    def _point(self, tf, z, J):
+        return ft.FixedTimePoint(tf, z, J, self.mass_of(z[0]), self.phi_of(z[0]))
+
+    def start(self, u):
+        return -u * u, np.array([u, u * u])
+
 
 def search(family, t0):
     s = ft.MaximumSearch(family, tu=ft.DAY, m0_kg=1.0)      # time unit = 1 day
@@ -80,12 +115,55 @@ def test_a_probe_that_fails_is_retried_closer_and_the_march_goes_on_from_it():
 
 
 def test_a_family_that_cannot_be_followed_is_reported_not_forced():
-    """Newton fails beyond t = 1.4 before φ changes sign: the march halves its step to δ/8 and
-    then stops with a reason."""
+    """Newton fails beyond t = 1.4 before φ changes sign: the march halves its step to δ/8, then
+    tries arclength steps, and stops with a reason."""
     fam = ModelFamily(lambda t: t - 2.0, lambda t: -0.5 * (t - 2.0) ** 2, fails_above=1.4, probe_days=0.25)
     s, found, best = search(fam, 1.0)
-    assert isinstance(found, str) and "could not be followed" in found and best is None
-    assert min(t for t in fam.calls if t > 1.4) == pytest.approx(1.375 + 0.25 / 8)
+    assert isinstance(found, str) and "could not be followed" in found and "arclength" in found and best is None
+    assert pytest.approx(1.375 + 0.25 / 8) in fam.calls                     # steps in t_f down to δ/8
+    assert 1.4 - 0.25 / 8 / 8 < max(p.tf for p in s.points) <= 1.4      # arclength creeps up to it
+
+
+# φ(u) = u (0.6 − u) on the fold family: φ < 0 on the branch u < 0, φ > 0 on u > 0 near the
+# fold; the maximum of m_f is at u = 0.6 (t_f = −0.36), a crossing of φ from − to + in t_f.
+FOLD_PHI = lambda u: u * (0.6 - u)
+FOLD_MASS = lambda u: 2.0 * 0.6 * u ** 3 / 3.0 - u ** 4 / 2.0      # −∫ φ T′ du
+
+
+def search_fold(fam, u0):
+    t0, z0 = fam.start(u0)
+    s = ft.MaximumSearch(fam, tu=ft.DAY, m0_kg=1.0)
+    found = s.bracket(s.solve(t0, z0))
+    return s, found, (None if isinstance(found, str) else s.root(*found))
+
+
+def test_arclength_goes_round_a_fold_from_the_downhill_branch():
+    """The E8 500 situation met by Newton: the free-time extremal sits next to a fold of the
+    fixed-time family (u₀ = −0.01, φ ≈ −0.006), the probe above it fails and the one below
+    lands on the lighter branch. Arclength from the origin goes round the fold onto u > 0, then
+    up that branch (t_f falling) to the maximum at u = 0.6."""
+    fam = FoldFamily(FOLD_PHI, FOLD_MASS)
+    s, (left, right), best = search_fold(fam, -0.01)
+    assert s.folds == 1 and s.arc_points >= 2
+    assert left.phi < 0.0 < right.phi and left.tf < right.tf and left.z[0] > 0.0 and right.z[0] > 0.0
+    assert best.z[0] == pytest.approx(0.6, abs=1e-6) and best.tf == pytest.approx(-0.36, abs=1e-6)
+    assert best.m_f > FOLD_MASS(-0.01)
+
+
+def test_from_the_uphill_branch_past_a_fold_the_march_goes_on_in_t_f():
+    """The same family from u₀ = +0.01, past the fold: the probe below lands on u > 0, heavier
+    and uphill, and steps in t_f go on down to the maximum without arclength."""
+    fam = FoldFamily(FOLD_PHI, FOLD_MASS)
+    s, (left, right), best = search_fold(fam, 0.01)
+    assert s.arc_points == 0 and best.z[0] == pytest.approx(0.6, abs=1e-6)
+
+
+def test_a_fold_where_phi_keeps_its_sign_is_no_maximum_and_is_reported():
+    """φ = −1 everywhere: m_f = T(u) rises up to the fold and falls beyond it. The march goes up
+    in t_f, arclength rounds the fold and finds m_f falling: the search says so."""
+    fam = FoldFamily(lambda u: -1.0, lambda u: -u * u)
+    s, found, best = search_fold(fam, -0.3)
+    assert isinstance(found, str) and "folds" in found and best is None and s.folds == 1
 
 
 def test_the_march_gives_up_after_max_points():

@@ -23,7 +23,11 @@ scale, against a slope of 2.35e-7 per 0.1 d unperturbed), so that its polish, wh
    between them where φ(t_f − δ) < 0 < φ(t_f + δ);
 3. otherwise marches uphill in m_f (towards −sign φ, from the probe with the larger m_f) by
    steps of the probe's distance, each start extrapolated through the last solutions in t_f,
-   the step halved where Newton fails (to δ/8), until φ turns from − to +;
+   the step halved where Newton fails (to δ/8), until φ turns from − to +; where a step fails
+   even at δ/8 (or a probe fails on one side only, E8 500 rev), the family is followed on by
+   pseudo-arclength in (z, t_f), round a fold in t_f onto the branch beyond it, uphill in m_f
+   (dm_f/ds = −m₀ φ dt_f/ds along the family), until φ turns from − to + on one branch or the
+   family folds with φ ≠ 0 (a maximum of m_f along it that is no free-time extremal);
 4. finds the root in that bracket by Brent's method (``scipy.optimize.brentq``, to
    ``tof_tol_days``; each value of φ a fixed-time Newton solve started from the bracket's
    solutions interpolated in t_f). Brent keeps a sign change between the ends of its bracket,
@@ -86,7 +90,11 @@ class FixedTimePoint:
 
 
 class FixedTimeFamily:
-    """The fixed-time problems of one perturbed free-time problem (shooting ``sh``, data ``prm``)."""
+    """The fixed-time problems of one perturbed free-time problem (shooting ``sh``, data ``prm``).
+
+    Its points solve F(z, t_f) = 0, the fixed-time shooting map at t_f, whose time row is
+    t(K_f) − t_f: ∂F/∂t_f = −e_t. :meth:`correct` solves F together with one linear border row,
+    t_f = t_pred (:meth:`point`) or a pseudo-arclength row (:meth:`MaximumSearch.follow_arc`)."""
 
     def __init__(self, sh, prm, opt: MaximumOptions):
         if hm.TIME not in sh.free_costates or sh.fixed_time:
@@ -104,57 +112,81 @@ class FixedTimeFamily:
             raise ValueError("the propagation of the free-time solution failed")
         return float(yf[hm.TIME])
 
+    def evaluate(self, z, tf, jacobian: bool):
+        """F(z, t_f) and, where ``jacobian``, ∂F/∂z: (f, J or None, ok)."""
+        prm = {**self.prm, "tf": jnp.asarray(tf)}
+        if jacobian:
+            f, J, _, _, ok = shoot(self.sh, jnp.asarray(z), 1.0, prm)
+            self.jacobians += 1
+            return np.asarray(f), np.asarray(J), ok
+        f, ok = residual(self.sh, jnp.asarray(z), 1.0, prm)
+        self.residuals += 1
+        return np.asarray(f), None, ok
+
     def point(self, tf: float, z, J=None) -> FixedTimePoint | None:
-        """The fixed-time extremal at ``tf`` from ``z``; None where it fails (``max_newton``
+        """The fixed-time extremal at ``tf`` from ``z`` (:meth:`correct` with the row t_f = tf)."""
+        return self.correct(np.append(np.asarray(z, float), tf), None, J)
+
+    def correct(self, x_pred, border=None, J=None) -> FixedTimePoint | None:
+        """The point x = (z, t_f) of the family with F(z, t_f) = 0 and border·(x − x_pred) = 0
+        (``border`` None: t_f = t_pred), from x_pred; None where it fails (``max_newton``
         Jacobians, or a Newton step that grows |f| tenfold).
 
-        Newton's method with chord steps (Shamanskii): after each Newton step the same Jacobian
-        serves up to ``chord_steps`` chord steps z ← z − J⁻¹f(z), each costing a residual
-        without sensitivities (a sixth of a Jacobian at E8 250 rev). A chord step that does not
-        halve |f| ends them: the next Jacobian is evaluated at its point where it lowered |f|,
-        else at the point it started from; after a Newton step that does not halve |f|, at its
-        point (Newton's iteration). Every Jacobian is thus evaluated at a new point
-        (going back to the best point instead, E8 500 cycled between the same two Newton steps).
-        ``J``: a neighbour's Jacobian, whose chord steps start the solve."""
-        opt, prm = self.opt, {**self.prm, "tf": jnp.asarray(tf)}
+        Newton's method on the bordered system [[∂F/∂z, −e_t], [border]] with chord steps
+        (Shamanskii): after each Newton step the same Jacobian serves up to ``chord_steps`` chord
+        steps, each costing a residual without sensitivities (a sixth of a Jacobian at E8 250
+        rev). A chord step that does not halve |f| ends them: the next Jacobian is evaluated at
+        its point where it lowered |f|, else at the point it started from; after a Newton step
+        that does not halve |f|, at its point (Newton's iteration). Every Jacobian is thus
+        evaluated at a new point (going back to the best point instead, E8 500 cycled between
+        the same two Newton steps). ``J``: a neighbour's Jacobian, whose chord steps start the
+        solve. With border e_{t_f} the step is Newton's on F(·, t_pred) alone."""
+        opt = self.opt
         self.solves += 1
-        z, rows, J = np.asarray(z, float), self.e_t == 0, J if opt.chord_steps > 0 else None
+        x_pred = np.asarray(x_pred, float)
+        b = np.eye(x_pred.size)[-1] if border is None else np.asarray(border, float)
+        x, rows, J = x_pred.copy(), self.e_t == 0, J if opt.chord_steps > 0 else None
         jacobians, uses, fresh, newton_step = 0, 0, False, False
-        z_from, n_from = z, np.inf                  # where the last step began, and its |f|
+        x_from, n_from = x, np.inf                  # where the last step began, and its |f|
         while True:
             if J is None:
                 if jacobians >= opt.max_newton:
                     return None
-                f, J, _, _, ok = shoot(self.sh, jnp.asarray(z), 1.0, prm)
-                J, jacobians, uses, fresh = np.asarray(J), jacobians + 1, 0, True
-                self.jacobians += 1
+                f, J, ok = self.evaluate(x[:-1], x[-1], True)
+                jacobians, uses, fresh = jacobians + 1, 0, True
             else:
-                f, ok = residual(self.sh, jnp.asarray(z), 1.0, prm)
-                self.residuals += 1
-            f = np.asarray(f)
+                f, _, ok = self.evaluate(x[:-1], x[-1], False)
             nf = float(np.linalg.norm(f[rows])) if ok and np.all(np.isfinite(f)) else np.inf
-            if nf <= opt.newton_tol and abs(f[~rows][0]) <= opt.time_rtol * abs(tf):
-                return self._point(tf, z, J, prm)
+            if nf <= opt.newton_tol and abs(f[~rows][0]) <= opt.time_rtol * abs(x[-1]):
+                return self._point(x[-1], x[:-1], J)
             if newton_step and not nf <= 10.0 * n_from:
                 return None                         # Newton diverges
             if not fresh and not nf <= 0.5 * n_from:
                 if not newton_step and not nf < n_from:
-                    z = z_from                      # a chord step that did not lower |f|: undone
+                    x = x_from                      # a chord step that did not lower |f|: undone
                 J, n_from, newton_step = None, np.inf, False     # a fresh Jacobian here
                 continue
-            newton_step, fresh, z_from, n_from = fresh, False, z, nf
-            z = z - np.linalg.solve(J, f)
+            newton_step, fresh, x_from, n_from = fresh, False, x, nf
+            bordered = np.vstack([np.column_stack([J, -self.e_t]), b])
+            x = x - np.linalg.solve(bordered, np.append(f, b @ (x - x_pred)))
+            if border is None:
+                x[-1] = x_pred[-1]                  # t_f exactly, not to round-off
             uses += 1
             if uses > opt.chord_steps:
                 J = None
 
-    def _point(self, tf, z, J, prm) -> FixedTimePoint | None:
+    def _point(self, tf, z, J) -> FixedTimePoint | None:
         """The converged fixed-time extremal at z: its final mass and φ = p_t(K_f)."""
-        yf, ok = final_state(self.sh, jnp.asarray(z), 1.0, prm)
+        yf, ok = final_state(self.sh, jnp.asarray(z), 1.0, {**self.prm, "tf": jnp.asarray(tf)})
         if not ok:
             return None
         yf = np.asarray(yf)
         return FixedTimePoint(tf, z, J, float(yf[hm.MASS]), float(yf[self.sh.model.n + hm.TIME]))
+
+    def tangent(self, p: FixedTimePoint) -> np.ndarray:
+        """A tangent (dz, dt_f) of the family at p: the null vector of [J, −e_t] (its smallest
+        right singular vector; it stays defined at a fold, where J is singular and dt_f = 0)."""
+        return np.linalg.svd(np.column_stack([p.J, -self.e_t]))[2][-1]
 
     def free_time_residual(self, z) -> float:
         """max |f| of the free-time shooting map at z (τ = 1)."""
@@ -194,6 +226,7 @@ class MaximumSearch:
         self.delta = self.opt.probe_days * DAY / tu
         self.tu, self.m0 = tu, m0_kg
         self.points: list[FixedTimePoint] = []
+        self.arc_points = self.folds = 0
 
     def log(self, msg):
         if self.opt.verbose:
@@ -202,6 +235,11 @@ class MaximumSearch:
     def days(self, tf) -> float:
         return tf * self.tu / DAY
 
+    def keep(self, p: FixedTimePoint, how: str = "") -> FixedTimePoint:
+        self.points.append(p)
+        self.log(f"  t_f {self.days(p.tf):.5f} d: m_f {p.m_f * self.m0:.6f} kg, phi {p.phi:+.3e}{how}")
+        return p
+
     def solve(self, tf, start, near: FixedTimePoint | None = None) -> FixedTimePoint | None:
         """The fixed-time point at ``tf`` from ``start``, its chord steps with the Jacobian of the
         solved point ``near``; logged, and kept in ``points``."""
@@ -209,23 +247,35 @@ class MaximumSearch:
         if p is None:
             self.log(f"  t_f {self.days(tf):.5f} d: fixed-time Newton failed")
             return None
-        self.points.append(p)
-        self.log(f"  t_f {self.days(tf):.5f} d: m_f {p.m_f * self.m0:.6f} kg, phi {p.phi:+.3e}")
-        return p
+        return self.keep(p)
 
     def bracket(self, origin: FixedTimePoint):
         """(left, right) solved points with φ(left) < 0 < φ(right), left.tf < right.tf, or a
         reason string where none was found."""
-        probes = [self.advance([origin], s, self.delta)[0] for s in (-1.0, 1.0)]
-        if any(p is None for p in probes):
-            return "a probe at t_f +/- probe_days (down to probe_days/8) did not converge"
-        lo, hi = probes
+        lo, hi = [self.advance([origin], s, self.delta)[0] for s in (-1.0, 1.0)]
+        if lo is None and hi is None:
+            return "neither probe at t_f +/- probe_days (down to probe_days/8) converged"
+        if lo is None or hi is None:
+            return self.one_sided(origin, *((lo, -1.0) if hi is None else (hi, 1.0)))
         if lo.phi < 0.0 < hi.phi:
             return (origin, hi) if origin.phi < 0.0 else (lo, origin)
         # uphill: m_f grows towards −sign φ; at a local minimum from the heavier probe
         if lo.phi > 0.0 and (hi.phi > 0.0 or lo.m_f > hi.m_f):
             return self.march([origin, lo], -1.0)
         return self.march([origin, hi], +1.0)
+
+    def one_sided(self, origin: FixedTimePoint, probe: FixedTimePoint, side: float):
+        """Only the probe on ``side`` converged: the family has no point within δ/8 on the
+        other side, as at a fold of the family in t_f next to the origin (E8 500 rev: two fixed-
+        time extremals at t_f − δ, none up to t_f + δ/8). From a probe uphill of the origin
+        (heavier, −φ·side > 0) the march goes on in t_f; from one downhill, the family is
+        followed by arclength from the origin away from it, round the fold."""
+        left, right = (probe, origin) if side < 0 else (origin, probe)
+        if left.phi < 0.0 < right.phi:
+            return left, right
+        if -probe.phi * side > 0.0 and probe.m_f > origin.m_f:
+            return self.march([origin, probe], side)
+        return self.follow_arc([probe, origin])
 
     def advance(self, trail: list[FixedTimePoint], direction: float, h: float):
         """The fixed-time point a step ``direction`` h beyond the last of ``trail``, started by
@@ -241,31 +291,84 @@ class MaximumSearch:
     def march(self, trail: list[FixedTimePoint], direction: float):
         """From the last point of ``trail`` in ``direction`` by steps of the trail's last spacing
         (at most δ; halved where Newton fails, down to δ/8, and kept), until φ turns from − to +
-        (as t_f grows)."""
+        (as t_f grows); where a step fails even at δ/8, on by arclength (:meth:`follow_arc`)."""
         h = min(self.delta, abs(trail[-1].tf - trail[-2].tf))
         while len(self.points) < self.opt.max_points:
             last = trail[-1]
             p, h = self.advance(trail, direction, h)
             if p is None:
-                return f"the fixed-time family could not be followed past t_f {self.days(last.tf):.5f} d"
+                return self.follow_arc(trail)
             trail.append(p)
             if np.sign(p.phi) != np.sign(last.phi):
                 return (last, p) if direction > 0 else (p, last)
         return f"no sign change of phi within {self.opt.max_points} fixed-time solves"
 
+    def follow_arc(self, trail: list[FixedTimePoint]):
+        """The family followed uphill in m_f by pseudo-arclength steps (Keller) from the last point
+        of ``trail``, where steps in t_f fail: round a fold in t_f, onto the branch beyond it.
+
+        Points x = (z, t_f), inner product ⟨x, y⟩ = θ² x_z·y_z + x_t y_t with θ = |Δt_f|/|Δz| of
+        the trail's last secant (its z and t_f parts weigh the same). Each step: predictor x + h v
+        along the unit tangent v (:meth:`FixedTimeFamily.tangent`, oriented along the secant
+        from the point before), corrector F = 0 with ⟨v, x − x_pred⟩ = 0
+        (:meth:`FixedTimeFamily.correct`, from a fresh Jacobian: the tangent at the new point
+        needs its own, as ∂F/∂z changes fast near a fold); h starts at a quarter of the secant's length, doubles
+        after each solved step up to that length, halves where the corrector fails (down to 1/64).
+        Along the family dm_f/ds = −m₀ φ dt_f/ds (the envelope relation): the march is uphill
+        while −φ v_t > 0. A fold (v_t changes sign) where φ changes sign too keeps it uphill; one
+        where φ keeps its sign is a maximum of m_f along the family that is no free-time
+        extremal (φ ≠ 0): the search stops there. Between two points with no fold, a crossing of
+        φ from − to + in t_f is the bracket of a local maximum."""
+        fam = self.family
+        a, last = trail[-2], trail[-1]
+        secant = np.append(last.z - a.z, last.tf - a.tf)
+        theta2 = secant[-1] ** 2 / max(float(secant[:-1] @ secant[:-1]), np.finfo(float).tiny)
+        inner = lambda u, w: theta2 * float(u[:-1] @ w[:-1]) + float(u[-1] * w[-1])
+        unit = lambda u, along: (u if inner(u, along) >= 0.0 else -u) / np.sqrt(inner(u, u))
+        h_max = np.sqrt(inner(secant, secant))
+        h, v = h_max / 4, unit(fam.tangent(last), secant)
+        self.log(f"  arclength from t_f {self.days(last.tf):.5f} d")
+        while len(self.points) < self.opt.max_points:
+            x_pred = np.append(last.z, last.tf) + h * v
+            p = fam.correct(x_pred, np.append(theta2 * v[:-1], v[-1]))
+            if p is None:
+                self.log(f"  arclength step {h / h_max:.3g} of the secant failed")
+                if h <= h_max / 64:
+                    return f"the fixed-time family could not be followed past t_f {self.days(last.tf):.5f} d (arclength)"
+                h *= 0.5
+                continue
+            self.arc_points += 1
+            w = unit(fam.tangent(p), np.append(p.z - last.z, p.tf - last.tf))
+            fold = np.sign(w[-1]) != np.sign(v[-1])
+            self.folds += int(fold)
+            self.keep(p, ", a fold in t_f passed" if fold else "")
+            left, right = sorted((last, p), key=lambda q: q.tf)
+            if not fold and left.phi < 0.0 < right.phi:
+                return left, right
+            if -p.phi * w[-1] < 0.0:
+                return (f"the family folds between t_f {self.days(last.tf):.5f} and {self.days(p.tf):.5f} d "
+                        "with phi != 0: m_f is largest along it at the fold, no local maximum in t_f" if fold else
+                        f"m_f decreases along the family at t_f {self.days(p.tf):.5f} d")
+            last, v, h = p, w, min(2.0 * h, h_max)
+        return f"no sign change of phi within {self.opt.max_points} fixed-time solves"
+
     def root(self, left: FixedTimePoint, right: FixedTimePoint) -> FixedTimePoint:
-        """The crossing of φ from − to + in [left, right] (Brent), as its solved point."""
-        inside = lambda: [q for q in self.points if left.tf <= q.tf <= right.tf]
+        """The crossing of φ from − to + in [left, right] (Brent), as its solved point. The starts
+        are interpolated between the bracket's own points only: where the family folds, other
+        solved points in that range of t_f lie on another branch."""
+        pool = [left, right]
 
         def phi(tf):
-            p = next((q for q in self.points if q.tf == tf), None) or \
-                self.solve(tf, _interpolate(inside(), tf), min(inside(), key=lambda q: abs(q.tf - tf)))
+            p = next((q for q in pool if q.tf == tf), None)
             if p is None:
-                raise _NewtonFailed(tf)
+                p = self.solve(tf, _interpolate(pool, tf), min(pool, key=lambda q: abs(q.tf - tf)))
+                if p is None:
+                    raise _NewtonFailed(tf)
+                pool.append(p)
             return p.phi
 
         tf = brentq(phi, left.tf, right.tf, xtol=self.opt.tof_tol_days * DAY / self.tu, maxiter=40)
-        return min(inside(), key=lambda p: abs(p.tf - tf))
+        return min(pool, key=lambda p: abs(p.tf - tf))
 
 
 class _NewtonFailed(Exception):
@@ -308,6 +411,7 @@ def maximise_final_mass(sol, options: MaximumOptions | None = None):
                    "points": [[search.days(p.tf), p.m_f * tr.m0, p.phi]
                               for p in sorted(search.points, key=lambda p: p.tf)],
                    "fixed_time_solves": family.solves, "jacobian_evaluations": family.jacobians,
+                   "arclength_points": search.arc_points, "folds_passed": search.folds,
                    "residual_evaluations": family.residuals,
                    "free_time_residual": family.free_time_residual(out.z),
                    "wall_time_s": time.perf_counter() - start})
