@@ -63,10 +63,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .constants import DAY
 from .errors import ConfigError
 
 J2000_JD = 2451545.0          # JD of the J2000 epoch (TDB)
-DAY_S = 86400.0               # s per day
+
 BODIES = ("moon", "sun")
 SERIES = ("moon", "sun_emb")  # stored Chebyshev series (see module docstring)
 
@@ -119,12 +120,12 @@ def utc_to_tdb_seconds(utc: str, key: str = "epoch") -> float:
     """
     s = utc_to_scales(utc, key)
     t1, t2 = s["tt"]
-    return ((t1 - J2000_JD) + t2) * DAY_S + s["tdb_minus_tt_s"]
+    return ((t1 - J2000_JD) + t2) * DAY + s["tdb_minus_tt_s"]
 
 
 def tdb_seconds_to_jd(t: float):
     """t [s TDB past J2000] -> two-part JD TDB (J2000_JD, days)."""
-    return J2000_JD, float(t) / DAY_S
+    return J2000_JD, float(t) / DAY
 
 
 def tdb_seconds_to_iso(t: float) -> str:
@@ -150,7 +151,7 @@ def open_de405():
 def check_in_de405(utc: str, key: str, eph=None) -> None:
     """ConfigError naming ``key`` and the date when the UTC date lies outside DE405."""
     eph = eph if eph is not None else open_de405()
-    jd = J2000_JD + utc_to_tdb_seconds(utc, key) / DAY_S
+    jd = J2000_JD + utc_to_tdb_seconds(utc, key) / DAY
     jalpha, jomega = float(eph.jalpha), float(eph.jomega)
     if not jalpha <= jd < jomega:
         raise ConfigError(key, utc, f"outside DE405 (JD {jalpha} to {jomega} TDB)")
@@ -174,7 +175,7 @@ def extract_window(start_utc: str, end_utc: str, name: str = "window", eph=None)
     t_hi = utc_to_tdb_seconds(end_utc, f"ephemeris.{name}.end")
     if not t_hi > t_lo:
         raise ConfigError(f"ephemeris.{name}.end", end_utc, f"must be after start {start_utc}")
-    jd_lo, jd_hi = J2000_JD + t_lo / DAY_S, J2000_JD + t_hi / DAY_S
+    jd_lo, jd_hi = J2000_JD + t_lo / DAY, J2000_JD + t_hi / DAY
     jalpha, jomega = float(eph.jalpha), float(eph.jomega)
     check_in_de405(start_utc, f"ephemeris.{name}.start", eph)
     check_in_de405(end_utc, f"ephemeris.{name}.end", eph)
@@ -206,10 +207,10 @@ def extract_window(start_utc: str, end_utc: str, name: str = "window", eph=None)
         "requested": {"start_utc": str(start_utc), "end_utc": str(end_utc),
                       "start_tdb_s": t_lo, "end_tdb_s": t_hi},
         "coverage": {"start_jd_tdb": cov_lo, "end_jd_tdb": cov_hi,
-                     "start_tdb_s": (cov_lo - J2000_JD) * DAY_S,
-                     "end_tdb_s": (cov_hi - J2000_JD) * DAY_S,
-                     "start_label": tdb_seconds_to_iso((cov_lo - J2000_JD) * DAY_S),
-                     "end_label": tdb_seconds_to_iso((cov_hi - J2000_JD) * DAY_S)},
+                     "start_tdb_s": (cov_lo - J2000_JD) * DAY,
+                     "end_tdb_s": (cov_hi - J2000_JD) * DAY,
+                     "start_label": tdb_seconds_to_iso((cov_lo - J2000_JD) * DAY),
+                     "end_label": tdb_seconds_to_iso((cov_hi - J2000_JD) * DAY)},
         "source": {"ephemeris": "JPL DE405", "reader": "jplephem.ephem.Ephemeris",
                    "de405": _version("de405"), "jplephem": _version("jplephem"),
                    "denum": float(eph.DENUM), "jalpha": jalpha, "jomega": jomega,
@@ -314,9 +315,9 @@ class ChebyshevEphemeris:
     def from_arrays(cls, arrays: dict, name: str = "window") -> "ChebyshevEphemeris":
         """From the arrays of :func:`extract_window` (or the NPZ artifact)."""
         def start_s(jd0):
-            return float((float(np.asarray(jd0)[0]) - J2000_JD) * DAY_S)   # exact (half days)
-        m_len = float(arrays["moon_days"]) * DAY_S
-        s_len = float(arrays["sun_emb_days"]) * DAY_S
+            return float((float(np.asarray(jd0)[0]) - J2000_JD) * DAY)   # exact (half days)
+        m_len = float(arrays["moon_days"]) * DAY
+        s_len = float(arrays["sun_emb_days"]) * DAY
         m0, s0 = start_s(arrays["moon_jd0"]), start_s(arrays["sun_emb_jd0"])
         nm, ns = np.asarray(arrays["moon_coef"]).shape[0], np.asarray(arrays["sun_emb_coef"]).shape[0]
         # granules must be contiguous and uniform (checked, since the lookup assumes it)

@@ -53,14 +53,15 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .ephemeris import DAY_S, J2000_JD, utc_to_scales, utc_to_tdb_seconds
+from .constants import DAY
+from .ephemeris import J2000_JD, utc_to_scales, utc_to_tdb_seconds
 from .errors import ConfigError
 
 METHODS = ("era", "gast")
 ERA_RATE = 1.00273781191135448          # ERA turns per UT1 day (IAU 2000)
-OMEGA_EARTH = 2.0 * math.pi * ERA_RATE / DAY_S   # rad/s (7.292115146706979e-5)
+OMEGA_EARTH = 2.0 * math.pi * ERA_RATE / DAY   # rad/s (7.292115146706979e-5)
 _AS2R = math.pi / (180.0 * 3600.0)
-_JC_S = 36525.0 * DAY_S                  # s per Julian century
+_JC_S = 36525.0 * DAY                  # s per Julian century
 
 
 @jax.tree_util.register_pytree_node_class
@@ -108,7 +109,7 @@ def earth_rotation(epoch_utc: str, method: str = "era", ut1_minus_utc: float = 0
         warnings.simplefilter("ignore", erfa.ErfaWarning)
         ut1_1, ut1_2 = erfa.utcut1(u1, u2, dut1)
     t_tdb = utc_to_tdb_seconds(epoch_utc, key=f"{key}.epoch")
-    t_ut1 = ((ut1_1 - J2000_JD) + ut1_2) * DAY_S
+    t_ut1 = ((ut1_1 - J2000_JD) + ut1_2) * DAY
     if method == "era":
         npb = erfa.c2i06a(tt1, tt2)
         ee0 = 0.0
@@ -123,7 +124,7 @@ def earth_rotation(epoch_utc: str, method: str = "era", ut1_minus_utc: float = 0
 def earth_angle(t, rot: EarthRotation):
     """theta(t) [rad] in [0, 2 pi) (ERA or GAST, see module docstring); t in s TDB past J2000."""
     t = jnp.asarray(t, dtype=jnp.float64)
-    du = (t - rot.tdb_minus_ut1_s) / DAY_S                        # UT1 days past J2000
+    du = (t - rot.tdb_minus_ut1_s) / DAY                        # UT1 days past J2000
     # erfa.era00 with d1 = 2451545.0, d2 = du: f = fmod(du, 1); d(mod)/dt = 1 in JAX
     turns = jnp.mod(du, 1.0) + 0.7790572732640 + 0.00273781191135448 * du
     theta = 2.0 * jnp.pi * turns
@@ -177,8 +178,8 @@ def icrs_to_itrs_rate(t, rot: EarthRotation):
 def erfa_reference_matrix(t, rot: EarthRotation) -> np.ndarray:
     """Reference M(t) assembled with pyerfa only (for tests): erfa.c2tcio / era00 or gst06."""
     t = float(t)
-    ut1 = (J2000_JD, (t - float(rot.tdb_minus_ut1_s)) / DAY_S)
-    tt = (J2000_JD, (t - float(rot.tdb_minus_tt_s)) / DAY_S)
+    ut1 = (J2000_JD, (t - float(rot.tdb_minus_ut1_s)) / DAY)
+    tt = (J2000_JD, (t - float(rot.tdb_minus_tt_s)) / DAY)
     npb = np.asarray(rot.npb)
     if rot.method == "era":
         theta = erfa.era00(*ut1)

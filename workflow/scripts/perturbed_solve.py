@@ -98,16 +98,19 @@ def main(sm):
     else:
         sol, extra = solve(sm, cfg, case, model, tr, label, warm_kw, fail)
         before = resumed_wall_time(sol.stats)
-        if P.tof_maximum_settings(cfg, case) and tr.perturbed:
-            P.save(sol, newton, cfg, time.perf_counter() - t0 + before, extra,
-                   samples_per_rev=cfg["numerics"]["samples_per_rev"])
+
+    def save(solution, path):
+        P.save(solution, path, cfg, time.perf_counter() - t0 + before, extra,
+               samples_per_rev=cfg["numerics"]["samples_per_rev"])
+
+    if resumed is None and P.tof_maximum_settings(cfg, case) and tr.perturbed:
+        save(sol, newton)
     # the local maximum of m_f in the time of flight next to the free-time extremal (numerics
     # tof_maximum): a free-time Newton also accepts degenerate points (E8 250, 500 rev)
     sol, record = P.maximise_in_tof(sol, cfg, case, label)
     if record is not None:
         extra["tof_maximum"] = record
-    P.save(sol, out, cfg, time.perf_counter() - t0 + before, extra,
-           samples_per_rev=cfg["numerics"]["samples_per_rev"])
+    save(sol, out)
     shutil.rmtree(out.with_suffix(".checkpoints"), ignore_errors=True)   # solved: none needed
 
 

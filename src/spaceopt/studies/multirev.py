@@ -21,9 +21,9 @@ from ..indirect.chain import Solution
 from ..indirect.shooting import Shooting
 from ..indirect.flow import Model
 from ..indirect.transfer import Orbit, Transfer
+from ..constants import DAY
 from .trajectory import sample
 
-DAY = 86400.0
 ORBIT_KEYS = ("perigee_alt_km", "apogee_alt_km", "i_deg", "raan_deg", "argp_deg")
 
 

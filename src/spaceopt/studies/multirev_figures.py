@@ -13,8 +13,8 @@ import numpy as np
 
 from .. import artifacts
 from ..report.figures import save_figure
+from ..constants import DAY
 
-DAY = 86400.0
 STAGE_LABEL = {"lp": "LP (minimum power)", "tmin": "T_min", "ot": "OT"}
 
 

@@ -46,9 +46,9 @@ from ..indirect.continuation import ACCEPTED_UPDATES, GROWTH, ArclengthOptions, 
 from ..indirect.free_time import MaximumOptions, maximise_final_mass
 from ..indirect.shooting import Shooting
 from ..indirect.transfer import MAX_STEPS, PATH_RTOL, Orbit, Transfer, step_cap
+from ..constants import DAY
 from . import multirev
 
-DAY = 86400.0
 ALT_KEYS = ("perigee_alt_km", "apogee_alt_km")
 AE_KEYS = ("a_km", "e")
 ANGLE_KEYS = ("i_deg", "raan_deg", "argp_deg")

@@ -13,8 +13,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ..report.figures import save_figure  # noqa: E402
+from ..constants import DAY  # noqa: E402
 
-DAY = 86400.0
 COLORS = {"unperturbed": "tab:blue", "j2": "tab:green", "g44": "tab:orange", "g44_moon_sun": "tab:red"}
 
 

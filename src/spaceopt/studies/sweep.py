@@ -48,9 +48,9 @@ from ..indirect.continuation import ContinuationOptions
 from ..indirect.flow import Model, field as flow_field
 from ..indirect.shooting import Shooting, initial_state, shoot
 from ..indirect.transfer import Transfer, step_cap
+from ..constants import DAY
 from . import multirev
 
-DAY = 86400.0
 TMIN_PARAM = Model("tmin", "param")
 CELL_COLUMNS = ["L0_deg", "n_rev", "T_min_N", "tof_days", "m_f_kg"]
 
