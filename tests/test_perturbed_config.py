@@ -1059,4 +1059,10 @@ def test_the_end_game_rows_and_sentence_say_what_was_certified_moved_and_not_fou
     assert "Of 3 perturbed solves, 2 are certified maxima; 1 of them were moved" in text
     assert "1.50 g" in text and "177.4674 $\\to$ 177.8050 d" in text
     assert "did not certify e8\\_g44\\_moon\\_sun\\_n450 (no sign change" in text
+    assert "round the fold" not in text and rows[0]["folds_passed"] is None
+    payloads["e8_g44_moon_sun_n500"] = rec("maximum", 321.1281, 321.0, 1e-3)
+    payloads["e8_g44_moon_sun_n500"]["extra"]["tof_maximum"].update(arclength_points=4, folds_passed=1)
+    rows = R.tof_maximum_rows(payloads)
+    assert rows[-1]["folds_passed"] == 1 and rows[-1]["arclength_points"] == 4
+    assert "round the fold (e8\\_g44\\_moon\\_sun\\_n500)" in R.tof_maximum_sentence(rows)
     assert R.tof_maximum_sentence([]) == ""

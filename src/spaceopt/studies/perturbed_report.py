@@ -90,13 +90,14 @@ def tables(payloads: dict, run: list, cases: dict, e6: dict, e8_n: list) -> dict
 
 
 TOF_MAXIMUM_COLUMNS = ["solve", "status", "t0_days", "tof_days", "m_f_gain_g", "fixed_time_solves",
-                       "jacobian_evaluations", "wall_time_s"]
+                       "jacobian_evaluations", "arclength_points", "folds_passed", "wall_time_s"]
 MOVED_DAYS = 1e-3       # an end game that changed Δt by more than this moved the extremal
 
 
 def tof_maximum_rows(payloads: dict) -> list[dict]:
     """One row per solve whose artifact records the free-time end game (``extra.tof_maximum``):
-    its status, the transfer time before (t0) and after it, and the final mass it gained."""
+    its status, the transfer time before (t0) and after it, the final mass it gained, its cost,
+    and the folds of the fixed-time family it went round (records before arclength have none)."""
     rows = []
     for key in sorted(payloads):
         rec = payloads[key].get("extra", {}).get("tof_maximum")
@@ -104,7 +105,8 @@ def tof_maximum_rows(payloads: dict) -> list[dict]:
             rows.append({"solve": key, "status": rec["status"], "t0_days": rec["t0_days"],
                          "tof_days": rec.get("tof_days"),
                          "m_f_gain_g": rec["m_f_gain_kg"] * 1e3 if "m_f_gain_kg" in rec else None,
-                         **{k: rec[k] for k in ("fixed_time_solves", "jacobian_evaluations", "wall_time_s")}})
+                         **{k: rec[k] for k in ("fixed_time_solves", "jacobian_evaluations", "wall_time_s")},
+                         **{k: rec.get(k) for k in ("arclength_points", "folds_passed")}})
     return rows
 
 
@@ -127,6 +129,10 @@ def tof_maximum_sentence(rows: list[dict]) -> str:
                  f"{top['m_f_gain_g']:.2f} g of final mass ({latex_escape(top['solve'])}, $\\Delta t$ "
                  f"{top['t0_days']:.4f} $\\to$ {top['tof_days']:.4f} d)")
     text += "."
+    folds = [r for r in certified if r.get("folds_passed")]
+    if folds:
+        text += (" Where the fixed-time family folds in $t_f$, the search follows it by pseudo-arclength "
+                 "in $(z, t_f)$ round the fold (" + ", ".join(latex_escape(r["solve"]) for r in folds) + ").")
     if failed:
         text += (" The search did not certify " + ", ".join(
             f"{latex_escape(r['solve'])} ({latex_escape(r['status'])})" for r in failed) + ".")
