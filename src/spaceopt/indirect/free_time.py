@@ -45,7 +45,11 @@ against 30 Jacobians; wall ratio 0.50 and 0.75 in two side-by-side runs on a sha
 ``benchmarks/free_time.py``). The Newton iterations and the march are written by hand:
 each value of the one-dimensional function φ is a Newton solve warm-started from its
 neighbours, a state that the bracketing solvers of scipy and optimistix do not carry between
-their evaluations.
+their evaluations. The pseudo-arclength steps (:meth:`MaximumSearch.follow_arc`) are not
+:class:`~.continuation.ArclengthContinuation`'s: that one follows a Newton homotopy in τ from 0
+to 1 and polishes at τ = 1; this one follows F(z, t_f) = 0 with no end in t_f, stops on the
+sign of −φ dt_f/ds, and shares the fixed-time corrector above (one bordered Newton with chord
+steps for both).
 """
 from __future__ import annotations
 
