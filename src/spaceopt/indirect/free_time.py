@@ -14,7 +14,10 @@ under the lunisolar perturbations φ wiggles (E8 full model: amplitude ~5e-7 on 
 scale, against a slope of 2.35e-7 per 0.1 d unperturbed), so that its polish, which accepts
 |F| ≤ 1e-7, also lands on degenerate points: E8 250 revolutions from scratch, 177.4674 d, where
 φ rises to −4e-8 and falls again (an inflection of m_f; the maximum is 1.5 g heavier at
-177.805 d), and E8 500, 321.1281 d (m_f rises by 0.9 g within 0.05 d).
+177.805 d). The fixed-time family can also fold in t_f: E8 500, 321.1281 d, is a maximum of its
+own branch 0.005 d below a fold, beyond which another branch has a maximum 0.09 g heavier at
+321.028 d (docs, "twenty-third session"); which one the search reaches depends on the branch
+its probes land on.
 
 :func:`maximise_final_mass` takes a converged perturbed free-time solution and
 
