@@ -95,6 +95,11 @@ class FixedTimePoint:
     m_f: float
     phi: float
 
+    @property
+    def x(self) -> np.ndarray:
+        """The point in (z, t_f), the unknowns of :meth:`FixedTimeFamily.correct`."""
+        return np.append(self.z, self.tf)
+
 
 class FixedTimeFamily:
     """The fixed-time problems of one perturbed free-time problem (shooting ``sh``, data ``prm``).
@@ -328,7 +333,7 @@ class MaximumSearch:
         φ from − to + in t_f is the bracket of a local maximum."""
         fam = self.family
         a, last = trail[-2], trail[-1]
-        secant = np.append(last.z - a.z, last.tf - a.tf)
+        secant = last.x - a.x
         theta2 = secant[-1] ** 2 / max(float(secant[:-1] @ secant[:-1]), np.finfo(float).tiny)
         inner = lambda u, w: theta2 * float(u[:-1] @ w[:-1]) + float(u[-1] * w[-1])
         unit = lambda u, along: (u if inner(u, along) >= 0.0 else -u) / np.sqrt(inner(u, u))
@@ -336,7 +341,7 @@ class MaximumSearch:
         h, v = h_max / 4, unit(fam.tangent(last), secant)
         self.log(f"  arclength from t_f {self.days(last.tf):.5f} d")
         while len(self.points) < self.opt.max_points:
-            x_pred = np.append(last.z, last.tf) + h * v
+            x_pred = last.x + h * v
             p = fam.correct(x_pred, np.append(theta2 * v[:-1], v[-1]))
             if p is None:
                 self.log(f"  arclength step {h / h_max:.3g} of the secant failed")
@@ -345,7 +350,7 @@ class MaximumSearch:
                 h *= 0.5
                 continue
             self.arc_points += 1
-            w = unit(fam.tangent(p), np.append(p.z - last.z, p.tf - last.tf))
+            w = unit(fam.tangent(p), p.x - last.x)
             fold = np.sign(w[-1]) != np.sign(v[-1])
             self.folds += int(fold)
             self.keep(p, ", a fold in t_f passed" if fold else "")
