@@ -250,3 +250,28 @@ def test_an_interrupted_end_game_resumes_from_the_saved_free_time_solution(pertu
     assert back.transfer.perturbed and extra["continued_from"] == "chain" and wall == 123.0
     path.with_suffix(".npz").write_bytes(b"truncated")
     assert P.end_game_start(path) is None
+
+
+def test_a_model_step_whose_polish_fails_hands_its_end_point_to_the_end_game(perturbed_e1):
+    """A warm start whose path reaches τ = 1 but whose final polish fails (here: a tolerance no
+    iterate can meet) leaves its point of least |F| on the exception as the new problem's
+    unconverged solution (E8 450 rev, full model: no free-time root near the path's end);
+    ``P.end_point_of`` accepts it for the problem asked, and the end game from it certifies the
+    maximum that a converged solve gives (checked against the J2 extremal solved directly)."""
+    from spaceopt.errors import ConvergenceError
+    from spaceopt.studies import perturbed as P
+
+    sol, opt, (g44, _) = perturbed_e1
+    tr_j2 = dataclasses.replace(sol.transfer, perturbations={"geopotential": "j2", "earth_angle": "era"})
+    j2 = P.warm_start(sol, tr_j2, "e1 j2", options=QUIET, model_path="arclength")
+    with pytest.raises(ConvergenceError, match="final Newton polish") as info:
+        P.warm_start(sol, tr_j2, "e1 j2 failing", model_path="arclength",
+                     options=ContinuationOptions(verbose=False, tol_final=1e-30))
+    diagnosis = info.value.diagnosis
+    end = P.end_point_of(info.value, tr_j2)
+    assert end is not None and end.transfer is tr_j2 and diagnosis["residual_best"] < 1e-8
+    np.testing.assert_array_equal(end.z, diagnosis["z_best"])
+    assert P.end_point_of(info.value, sol.transfer) is None          # not the problem asked
+    out, rec = ft.maximise_final_mass(end, opt)
+    assert rec["certified"] and rec["free_time_residual"] < 1e-8
+    np.testing.assert_allclose(out.z, j2.z, rtol=1e-5, atol=1e-8)

@@ -1066,3 +1066,30 @@ def test_the_end_game_rows_and_sentence_say_what_was_certified_moved_and_not_fou
     assert rows[-1]["folds_passed"] == 1 and rows[-1]["arclength_points"] == 4
     assert "round the fold (e8\\_g44\\_moon\\_sun\\_n500)" in R.tof_maximum_sentence(rows)
     assert R.tof_maximum_sentence([]) == ""
+
+
+def test_a_failed_polish_reports_its_best_point_beside_where_it_stopped():
+    """f = (∛z₀, z₁): Newton's step z₀ → −2 z₀ grows |F| by 2^⅓ each time, within the polish's
+    twofold allowance, so it stops far worse than it began; the diagnosis keeps both where it
+    stopped (``z``) and its point of least |F| (``z_best``, here the start), which a caller can
+    still certify another way (the free-time end game)."""
+    import numpy as np
+
+    from spaceopt.errors import ConvergenceError
+
+    def residual(z, tau):
+        return np.array([np.cbrt(z[0]), z[1]]), True
+
+    def jacobian(z):
+        return np.diag([abs(z[0]) ** (-2.0 / 3.0) / 3.0, 1.0])
+
+    from spaceopt.indirect.continuation import Continuation, ContinuationOptions
+    ev = lambda z, tau: (residual(z, tau)[0], jacobian(z), np.zeros(2), 0, True)
+    start = np.array([1e-3, 0.0])
+    with pytest.raises(ConvergenceError, match="final Newton polish") as info:
+        # a polish distinct from ``evaluate`` (as in _final_polish)
+        Continuation(ev, ContinuationOptions(verbose=False, tol_final=1e-12),
+                     polish=lambda z, tau: ev(z, tau)).run(start, tau0=1.0)
+    d = info.value.diagnosis
+    assert d["residual_best"] == pytest.approx(0.1) and d["residual"] > 1.5 * d["residual_best"]
+    np.testing.assert_array_equal(d["z_best"], start)

@@ -14,10 +14,13 @@ class ConfigError(SpaceoptError):
 
 
 class ConvergenceError(SpaceoptError):
-    """A continuation or Newton solve failed; ``diagnosis`` is a JSON-ready dict."""
+    """A continuation or Newton solve failed; ``diagnosis`` is a JSON-ready dict. ``end_point``:
+    where a path reached its end but the final polish failed, the unconverged solution there
+    (not serialised), for a caller that can certify it another way."""
 
     def __init__(self, message: str, diagnosis: dict):
         self.diagnosis = diagnosis
+        self.end_point = None
         super().__init__(message)
 
 

@@ -26,7 +26,24 @@ def checkpoint_dir(out: Path, cfg: dict) -> Path:
 
 def solve(sm, cfg, case, model, tr, label, warm_kw, fail):
     """The Newton solution of this job: (solution, artifact extra); a failure is written
-    (``fail``) and raised."""
+    (``fail``) and raised. A warm start whose path reached τ = 1 but whose final polish failed
+    hands its best point to the free-time end game instead (where the case has one;
+    ``P.end_point_of``), with the failure in the extra (``polish_failure``): :func:`main` keeps
+    the result only where the end game certifies a local maximum from there."""
+
+    def warm(start, warm_label, extra):
+        try:
+            return P.warm_start(P.load(start), tr, warm_label, **warm_kw), extra
+        except ConvergenceError as exc:
+            end = P.end_point_of(exc, tr) if P.tof_maximum_settings(cfg, case) else None
+            if end is None:
+                raise
+            print(f"[{label}] {exc}; its best point (|F| {exc.diagnosis['residual_best']:.2e}) goes to "
+                  "the free-time end game", file=sys.stderr, flush=True)
+            return end, {**extra, "polish_failure": {
+                "error": str(exc), "residual_best": exc.diagnosis["residual_best"],
+                **{k: exc.diagnosis.get(k) for k in ("jacobian_evaluations", "residual_evaluations", "wall_time_s")}}}
+
     try:
         if sm.params.source == "chain":
             cc = cfg["cases"][case]
@@ -45,13 +62,11 @@ def solve(sm, cfg, case, model, tr, label, warm_kw, fail):
                 fail(exc, ".chain_failure.json")
                 print(f"[{label}] chain from the zero guess failed ({exc}); warm start from "
                       f"{sm.input.start}", file=sys.stderr, flush=True)
-                sol = P.warm_start(P.load(sm.input.start), tr, label + "/warm", **warm_kw)
-                extra = {"continued_from": str(sm.input.start), "route": route,
-                         "chain_failure": {"error": str(exc), "diagnosis": exc.diagnosis}}
+                sol, extra = warm(sm.input.start, label + "/warm", {
+                    "continued_from": str(sm.input.start), "route": route,
+                    "chain_failure": {"error": str(exc), "diagnosis": exc.diagnosis}})
         else:
-            start = P.load(sm.input.start)
-            sol = P.warm_start(start, tr, label, **warm_kw)
-            extra = {"continued_from": str(sm.input.start)}
+            sol, extra = warm(sm.input.start, label, {"continued_from": str(sm.input.start)})
     except ConvergenceError as exc:
         fail(exc, ".failure.json")
         raise
@@ -110,6 +125,12 @@ def main(sm):
     sol, record = P.maximise_in_tof(sol, cfg, case, label)
     if record is not None:
         extra["tof_maximum"] = record
+    if "polish_failure" in extra and not record["certified"]:
+        exc = ConvergenceError(f"{label}: {extra['polish_failure']['error']}; the free-time end game from its "
+                               f"best point certified no maximum ({record['status']})",
+                               {**extra["polish_failure"], "tof_maximum": record})
+        fail(exc, ".failure.json")
+        raise exc
     save(sol, out)
     shutil.rmtree(out.with_suffix(".checkpoints"), ignore_errors=True)   # solved: none needed
 

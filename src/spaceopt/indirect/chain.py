@@ -160,7 +160,7 @@ def _run_multiple(sh: Shooting, z0, prm, label, options, path, arcs):
         # the single-shooting polish, which lacks the nearly flat node-time directions (E8 500
         # rev at τ = 1: σ_min 2.7e-5 of σ_max 3.9e3 over 10 arcs; 3.7e-4 in single shooting)
         Z, stats = np.asarray(exc.diagnosis["z"]), {**exc.diagnosis, "polish_failed": str(exc)}
-        stats = {k: v for k, v in stats.items() if k not in ("z", "history")}
+        stats = {k: v for k, v in stats.items() if k not in ("z", "z_best", "history")}
     single = lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm)
     polish = Continuation(single, path_options("tau", options, f"{label} single-shooting polish"),
                           polish=lambda z, tau: single(z, tau),
@@ -318,8 +318,17 @@ def continue_in_model(sol: Solution, prm_to: dict, options=None, label="model", 
     if moved or sol.stage != "ot" or not sol.shooting.model.perturbed:
         raise ValueError(f"continue_in_model: a perturbed OT solution at the same data is needed (differs: {moved})")
     sh = dataclasses.replace(sol.shooting, model=dataclasses.replace(sol.shooting.model, homotopy="model"))
-    z, stats = _run(sh, sol.z, {**prm_to, "pert_from": sol.prm["pert"]}, label, options, path)
-    return Solution(sol.stage, sol.shooting, z, dict(prm_to), sol.transfer, stats, thrust_N=sol.thrust_N)
+    solved = lambda z, stats: Solution(sol.stage, sol.shooting, z, dict(prm_to), sol.transfer, stats,
+                                       thrust_N=sol.thrust_N)
+    try:
+        z, stats = _run(sh, sol.z, {**prm_to, "pert_from": sol.prm["pert"]}, label, options, path)
+    except ConvergenceError as exc:
+        # at τ = 1 the blend is the new model itself: a failed polish leaves its best point
+        # there as the new problem's unconverged solution (``exc.end_point``)
+        if exc.diagnosis.get("reason") == POLISH_FAILED and exc.diagnosis.get("tau") == 1.0:
+            exc.end_point = solved(np.asarray(exc.diagnosis["z_best"]), dict(exc.diagnosis))
+        raise
+    return solved(z, stats)
 
 
 def smoothing_to(sol: Solution, eps_to: float, options=None, label="eps") -> Solution:

@@ -432,8 +432,14 @@ class Continuation:
         contracting before regula falsi has closed its bracket; E8 450, single shooting:
         docs/perturbed-e6-e7-e8.md, "fifteenth session"). A round whose march found no bracket
         but a valley point with at most half the origin's |g| hands that point, not a root, to
-        the next round, without Newton in between."""
+        the next round, without Newton in between. A failed polish's diagnosis has, besides
+        where it stopped (``z``), the point of least |F| it evaluated (``z_best``,
+        ``residual_best``): Newton's steps may grow |F| twofold each, so where it stopped can be
+        far from the path's end (E8 450: |F| 5e-2 from 1e-4), and a caller that can certify
+        an end point another way starts from the best one (the free-time end game,
+        :func:`spaceopt.studies.perturbed.end_point_of`)."""
         opt = self.opt
+        self._best = (np.inf, z)
         z, J, F, nF = self._newton_polish(z, J, F, tau, solve, opt.step_rcond)
         for round_ in range(opt.flat_restarts if opt.flat_step > 0 else 0):
             if nF <= opt.tol_final * 1e3:
@@ -448,6 +454,7 @@ class Continuation:
             if not for_newton:
                 # no bracket, but a valley point nearer the root: the next round from there
                 z, J, F, nF = root, J_root, f, _norm(f)
+                self._note_best(z, nF)
                 continue
             z_r, J_r, F_r, n_r = self._newton_polish(root, J_root, f, tau, solve, 0.0, at_root=True)
             if n_r >= nF:
@@ -459,7 +466,9 @@ class Continuation:
         self.stats.residual = nF
         self.stats.wall_time_s = self._elapsed()
         if nF > opt.tol_final * 1e3:
-            raise self._diagnose(POLISH_FAILED, z, tau, h, F)
+            exc = self._diagnose(POLISH_FAILED, z, tau, h, F)
+            exc.diagnosis.update({"z_best": np.asarray(self._best[1]).tolist(), "residual_best": self._best[0]})
+            raise exc
         self._log(f"{tag}: |F|={nF:.2e} steps={self.stats.steps} rejected={self.stats.rejected} "
                   f"jacobians={self.stats.jacobians} ({self.stats.wall_time_s:.1f} s)")
         return z, J
@@ -471,12 +480,14 @@ class Continuation:
         step there costs a Jacobian of ~2 min)."""
         opt = self.opt
         nF = _norm(F)
+        self._note_best(z, nF)
         for _ in range(opt.max_final):
             if nF <= opt.tol_final:
                 break
             z_new = z + solve(J, -F, rcond)
             f_new, J_new, _, ok = self._eval(z_new, tau, final=True)
             n_new = _norm(f_new) if ok and np.all(np.isfinite(f_new)) else np.inf
+            self._note_best(z_new, n_new)
             if rcond > 0 and n_new > 0.5 * nF:
                 rcond = 0.0                 # truncated steps no longer gain: Newton from here
                 if n_new >= nF:
@@ -489,6 +500,11 @@ class Continuation:
                 break
             z, F, J, nF = z_new, f_new, J_new, n_new
         return z, J, F, nF
+
+    def _note_best(self, z, nF):
+        """Keep (|F|, z) as the polish's best point where |F| is the least yet (:meth:`_polish`)."""
+        if nF < self._best[0]:
+            self._best = (nF, z)
 
     def _flat_root(self, z, J, F, tau, later_round=False):
         """(x, True): a point for Newton, a root of f(·, τ) along the flattest direction of J

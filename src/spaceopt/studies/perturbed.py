@@ -277,6 +277,8 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
                 break
             except ConvergenceError as exc:
                 if len(failures) == len(tries) - 1:
+                    if exc.end_point is not None:
+                        exc.end_point.transfer, exc.end_point.thrust_N = tr_to, sol.thrust_N
                     raise
                 failures.append(f"{name}: {exc}")
         out.stats["warm_path"] = name
@@ -449,6 +451,22 @@ def maximise_in_tof(sol: Solution, pc: dict, case: str, label: str) -> tuple[Sol
     if not settings or not sol.transfer.perturbed:
         return sol, None
     return maximise_final_mass(sol, MaximumOptions(label=f"{label} tof maximum", **settings))
+
+
+def end_point_of(exc: ConvergenceError, tr: Transfer) -> Solution | None:
+    """The unconverged free-time solution of ``tr`` that a failed warm start left where its path
+    reached τ = 1 and only the final polish failed (``exc.end_point``, its point of least |F|;
+    :func:`chain.continue_in_model`), or None where there is none or it is not ``tr``'s
+    perturbed OT problem at its final ε. The free-time end game can still certify a local
+    maximum of m_f from it: the fixed-time Jacobian stays regular where the free-time one has
+    a nearly flat direction (E8 450 rev, full model: σ_min 0.21 against 3e-4,
+    docs/perturbed-e6-e7-e8.md, "twenty-first session")."""
+    end = exc.end_point
+    if end is None or end.stage != "ot" or not tr.perturbed or end.transfer is not tr:
+        return None
+    if not np.isclose(float(end.prm["eps_final"]), float(tr.params(thrust=end.thrust_N)["eps_final"]), rtol=1e-12):
+        return None
+    return end
 
 
 load = multirev.load     # rebuilds perturbed solutions too (model.perturbed in the artifact)

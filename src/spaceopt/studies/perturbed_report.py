@@ -89,20 +89,24 @@ def tables(payloads: dict, run: list, cases: dict, e6: dict, e8_n: list) -> dict
     return out
 
 
-TOF_MAXIMUM_COLUMNS = ["solve", "status", "t0_days", "tof_days", "m_f_gain_g", "fixed_time_solves",
+TOF_MAXIMUM_COLUMNS = ["solve", "start", "status", "t0_days", "tof_days", "m_f_gain_g", "fixed_time_solves",
                        "jacobian_evaluations", "arclength_points", "folds_passed", "wall_time_s"]
 MOVED_DAYS = 1e-3       # an end game that changed Δt by more than this moved the extremal
 
 
 def tof_maximum_rows(payloads: dict) -> list[dict]:
     """One row per solve whose artifact records the free-time end game (``extra.tof_maximum``):
-    its status, the transfer time before (t0) and after it, the final mass it gained, its cost,
-    and the folds of the fixed-time family it went round (records before arclength have none)."""
+    where it started (``newton``: the free-time Newton solution; ``failed polish``: the best
+    point of a free-time polish that did not converge, ``extra.polish_failure``), its status,
+    the transfer time before (t0) and after it, the final mass it gained, its cost, and the
+    folds of the fixed-time family it went round (records before arclength have none)."""
     rows = []
     for key in sorted(payloads):
-        rec = payloads[key].get("extra", {}).get("tof_maximum")
+        extra = payloads[key].get("extra", {})
+        rec = extra.get("tof_maximum")
         if rec:
-            rows.append({"solve": key, "status": rec["status"], "t0_days": rec["t0_days"],
+            rows.append({"solve": key, "start": "failed polish" if "polish_failure" in extra else "newton",
+                         "status": rec["status"], "t0_days": rec["t0_days"],
                          "tof_days": rec.get("tof_days"),
                          "m_f_gain_g": rec["m_f_gain_kg"] * 1e3 if "m_f_gain_kg" in rec else None,
                          **{k: rec[k] for k in ("fixed_time_solves", "jacobian_evaluations", "wall_time_s")},
@@ -129,6 +133,11 @@ def tof_maximum_sentence(rows: list[dict]) -> str:
                  f"{top['m_f_gain_g']:.2f} g of final mass ({latex_escape(top['solve'])}, $\\Delta t$ "
                  f"{top['t0_days']:.4f} $\\to$ {top['tof_days']:.4f} d)")
     text += "."
+    unpolished = [r for r in certified if r.get("start") == "failed polish"]
+    if unpolished:
+        text += (" Where the free-time polish did not converge, the search starts from its best point and "
+                 "the maximum it certifies is the solution (" +
+                 ", ".join(latex_escape(r["solve"]) for r in unpolished) + ").")
     folds = [r for r in certified if r.get("folds_passed")]
     if folds:
         text += (" Where the fixed-time family folds in $t_f$, the search follows it by pseudo-arclength "
