@@ -433,11 +433,12 @@ class Continuation:
         docs/perturbed-e6-e7-e8.md, "fifteenth session"). A round whose march found no bracket
         but a valley point with at most half the origin's |g| hands that point, not a root, to
         the next round, without Newton in between. A failed polish's diagnosis has, besides
-        where it stopped (``z``), the point of least |F| it evaluated (``z_best``,
-        ``residual_best``): Newton's steps may grow |F| twofold each, so where it stopped can be
-        far from the path's end (E8 450: |F| 5e-2 from 1e-4), and a caller that can certify
-        an end point another way starts from the best one (the free-time end game,
-        :func:`spaceopt.studies.perturbed.end_point_of`)."""
+        where it stopped (``z``), the point of least |F| it evaluated, Newton's iterates and
+        the flat march's valley points alike (``z_best``, ``residual_best``): where it stopped
+        can be far off (E8 450 rev, single shooting: its start, handed over by the failed
+        multiple-shooting polish, has |F| 5e-2, the valley through it 3.5e-7), and a caller
+        that can certify an end point another way starts from the best one (the free-time end
+        game, :func:`spaceopt.studies.perturbed.end_point_of`)."""
         opt = self.opt
         self._best = (np.inf, z)
         z, J, F, nF = self._newton_polish(z, J, F, tau, solve, opt.step_rcond)
@@ -540,6 +541,7 @@ class Continuation:
                 f, ok = self._residual(x, tau)
                 if not ok or not np.all(np.isfinite(f)):
                     break
+                self._note_best(x, _norm(f))
                 c = Ur.T @ f
                 reg, step = float(np.linalg.norm(c)), c / Sr
                 point = (x, reg, float(u @ f), float(np.linalg.norm(step)))
