@@ -130,6 +130,9 @@ def main(sm):
                                f"best point certified no maximum ({record['status']})",
                                {**extra["polish_failure"], "tof_maximum": record})
         fail(exc, ".failure.json")
+        # no resume from this start: a rerun takes the route again (its path checkpoint is kept)
+        for part in newton.parent.glob(newton.stem + ".*"):
+            part.unlink()
         raise exc
     save(sol, out)
     shutil.rmtree(out.with_suffix(".checkpoints"), ignore_errors=True)   # solved: none needed
