@@ -954,7 +954,16 @@ def test_a_round_without_a_bracket_hands_its_point_nearest_the_root_to_the_next_
     is switched off (max_final 0) to isolate the rounds."""
     import numpy as np
 
-    b, y_root = 100.0, 0.009
+    residual, jacobian = _stiff_valley()
+    z, stats = _polish_needing_rounds(residual, jacobian, tol_final=1e-14, flat_step=0.04, max_final=0)
+    assert np.abs(residual(z, 1.0)[0]).max() < 1e-12 and stats.jacobians == 4
+    assert z[1] == pytest.approx(0.009, abs=1e-6)          # |g| 1e-13 at slope 1e-6
+
+
+def _stiff_valley(b=100.0, y_root=0.009):
+    """(residual, jacobian) of f = (e^{b y} (x − y²), 10⁻⁶ (y − y*)): a valley x = y² whose
+    chords, J held from y = 0, contract only for y < ln 2 / b."""
+    import numpy as np
 
     def residual(z, tau):
         with np.errstate(over="ignore", invalid="ignore"):
@@ -964,9 +973,25 @@ def test_a_round_without_a_bracket_hands_its_point_nearest_the_root_to_the_next_
         d, y = z[0] - z[1] ** 2, z[1]
         return np.exp(b * y) * np.array([[1.0, b * d - 2.0 * y], [0.0, 1e-6 * np.exp(-b * y)]])
 
-    z, stats = _polish_needing_rounds(residual, jacobian, tol_final=1e-14, flat_step=0.04, max_final=0)
-    assert np.abs(residual(z, 1.0)[0]).max() < 1e-12 and stats.jacobians == 4
-    assert z[1] == pytest.approx(y_root, abs=1e-6)          # |g| 1e-13 at slope 1e-6
+    return residual, jacobian
+
+
+def test_a_failed_polish_counts_the_flat_march_valley_points_among_its_best():
+    """One round of the flat root on :func:`_stiff_valley` fails (no bracket, Newton off); its
+    valley points lie nearer the root than the start, |F| 9e-9 at (0, 0), and the best of them
+    is the diagnosis's ``z_best`` (E8 450 rev: the single-shooting start at |F| 5e-2, the
+    valley through it at 3.5e-7; the free-time end game starts from there)."""
+    import numpy as np
+
+    from spaceopt.errors import ConvergenceError
+
+    residual, jacobian = _stiff_valley()
+    with pytest.raises(ConvergenceError, match="final Newton polish") as info:
+        _final_polish(residual, jacobian, tol_final=1e-14, flat_step=0.04, max_final=0, flat_restarts=1)
+    d = info.value.diagnosis
+    assert d["residual_best"] < 0.5 * 9e-9
+    assert d["residual_best"] == pytest.approx(np.abs(residual(np.array(d["z_best"]), 1.0)[0]).max())
+    assert 0.0 < d["z_best"][1] < 0.009
 
 
 def test_e8_figure_breaks_the_line_at_a_missing_count(tmp_path, monkeypatch):
