@@ -271,6 +271,7 @@ def test_a_model_step_whose_polish_fails_hands_its_end_point_to_the_end_game(per
     end = P.end_point_of(info.value, tr_j2)
     assert end is not None and end.transfer is tr_j2 and diagnosis["residual_best"] < 1e-8
     np.testing.assert_array_equal(end.z, diagnosis["z_best"])
+    assert "z" not in end.stats and end.stats["reason"] == diagnosis["reason"]    # no stale unknowns
     assert P.end_point_of(info.value, sol.transfer) is None          # not the problem asked
     out, rec = ft.maximise_final_mass(end, opt)
     assert rec["certified"] and rec["free_time_residual"] < 1e-8

@@ -326,7 +326,8 @@ def continue_in_model(sol: Solution, prm_to: dict, options=None, label="model", 
         # at τ = 1 the blend is the new model itself: a failed polish leaves its best point
         # there as the new problem's unconverged solution (``exc.end_point``)
         if exc.diagnosis.get("reason") == POLISH_FAILED and exc.diagnosis.get("tau") == 1.0:
-            exc.end_point = solved(np.asarray(exc.diagnosis["z_best"]), dict(exc.diagnosis))
+            stats = {k: v for k, v in exc.diagnosis.items() if k not in ("z", "z_best", "history")}
+            exc.end_point = solved(np.asarray(exc.diagnosis["z_best"]), stats)
         raise
     return solved(z, stats)
 
