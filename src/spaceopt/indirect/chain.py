@@ -31,7 +31,7 @@ import numpy as np
 from ..errors import ConvergenceError
 from . import hamiltonians as hm
 from .continuation import (POLISH_FAILED, STEP_SIZES, ArclengthContinuation, ArclengthOptions,
-                           Continuation, ContinuationOptions)
+                           Continuation, ContinuationOptions, failure_statistics)
 from .flow import Model, field as flow_field
 from .multiple_shooting import MultipleShooting, node_positions, start_nodes
 from .multiple_shooting import residual as multiple_residual, shoot as multiple_shoot
@@ -159,8 +159,7 @@ def _run_multiple(sh: Shooting, z0, prm, label, options, path, arcs):
         # the path reached τ = 1 but the multiple-shooting polish failed: its end point goes to
         # the single-shooting polish, which lacks the nearly flat node-time directions (E8 500
         # rev at τ = 1: σ_min 2.7e-5 of σ_max 3.9e3 over 10 arcs; 3.7e-4 in single shooting)
-        Z, stats = np.asarray(exc.diagnosis["z"]), {**exc.diagnosis, "polish_failed": str(exc)}
-        stats = {k: v for k, v in stats.items() if k not in ("z", "z_best", "history")}
+        Z, stats = np.asarray(exc.diagnosis["z"]), {**failure_statistics(exc.diagnosis), "polish_failed": str(exc)}
     single = lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm)
     polish = Continuation(single, path_options("tau", options, f"{label} single-shooting polish"),
                           polish=lambda z, tau: single(z, tau),
@@ -326,8 +325,7 @@ def continue_in_model(sol: Solution, prm_to: dict, options=None, label="model", 
         # at τ = 1 the blend is the new model itself: a failed polish leaves its best point
         # there as the new problem's unconverged solution (``exc.end_point``)
         if exc.diagnosis.get("reason") == POLISH_FAILED and exc.diagnosis.get("tau") == 1.0:
-            stats = {k: v for k, v in exc.diagnosis.items() if k not in ("z", "z_best", "history")}
-            exc.end_point = solved(np.asarray(exc.diagnosis["z_best"]), stats)
+            exc.end_point = solved(np.asarray(exc.diagnosis["z_best"]), failure_statistics(exc.diagnosis))
         raise
     return solved(z, stats)
 

@@ -125,6 +125,12 @@ class ContinuationStats:
 
 GROWTH = ("iterations", "residual")
 POLISH_FAILED = "final Newton polish did not converge"     # the diagnosis reason (chain._run_multiple)
+
+
+def failure_statistics(diagnosis: dict) -> dict:
+    """A failure's diagnosis without its unknowns (``z``, ``z_best``) and step history: the
+    statistics of a stage that goes on from it (chain._run_multiple, chain.continue_in_model)."""
+    return {k: v for k, v in diagnosis.items() if k not in ("z", "z_best", "history")}
 ACCEPTED_UPDATES = ("always", "revert")
 ITERATION_GROWTH = {1: 2.0, 2: 1.5, 3: 1.2}
 SECANT_OVERSHOOT = 1.5      # the flat march's step past the root its secant predicts (_march_valley)
@@ -455,7 +461,6 @@ class Continuation:
             if not for_newton:
                 # no bracket, but a valley point nearer the root: the next round from there
                 z, J, F, nF = root, J_root, f, _norm(f)
-                self._note_best(z, nF)
                 continue
             z_r, J_r, F_r, n_r = self._newton_polish(root, J_root, f, tau, solve, 0.0, at_root=True)
             if n_r >= nF:
