@@ -42,15 +42,16 @@ class ModelFamily:
 
 class FoldFamily(ft.FixedTimeFamily):
     """A family that folds in t_f, solved by the library's own corrector: z = (u, w),
-    F(z, t_f) = (w − u², −w − t_f), the time row second (as p_t(K_f) ↦ t(K_f) − t_f) and the
+    F(z, t_f) = (w + T(u), −w − t_f), the time row second (as p_t(K_f) ↦ t(K_f) − t_f) and the
     nonlinear row first (the time row is left out of the corrector's |f|). Its points are
-    w = u², t_f = −u²: two branches u < 0 and u > 0 for t_f < 0, none above, the fold at u = 0
-    where ∂F/∂z is singular. φ(u) is given and m_f(u) = −∫ φ dt_f/du du (the envelope relation
-    along the family)."""
+    w = −T(u), t_f = T(u), with folds where T′(u) = 0 and ∂F/∂z is singular. The default
+    T = −u²: two branches u < 0 and u > 0 for t_f < 0, none above, the fold at u = 0. φ(u) is
+    given and m_f(u) = −∫ φ dt_f/du du (the envelope relation along the family)."""
 
-    def __init__(self, phi, mass, probe_days=0.04):
-        self.opt = ft.MaximumOptions(probe_days=probe_days, tof_tol_days=1e-9, verbose=False)
+    def __init__(self, phi, mass, probe_days=0.04, shape=(lambda u: -u * u, lambda u: -2.0 * u), max_points=16):
+        self.opt = ft.MaximumOptions(probe_days=probe_days, tof_tol_days=1e-9, verbose=False, max_points=max_points)
         self.phi_of, self.mass_of = phi, mass
+        self.T, self.dT = shape
         self.e_t = np.array([0.0, 1.0])
         self.jacobians = self.residuals = self.solves = 0
 
@@ -58,14 +59,14 @@ class FoldFamily(ft.FixedTimeFamily):
         u, w = z
         self.residuals += not jacobian
         self.jacobians += jacobian
-        J = np.array([[-2.0 * u, 1.0], [0.0, -1.0]]) if jacobian else None
-        return np.array([w - u * u, -w - tf]), J, True
+        J = np.array([[self.dT(u), 1.0], [0.0, -1.0]]) if jacobian else None
+        return np.array([w + self.T(u), -w - tf]), J, True
 
     def _point(self, tf, z, J):
         return ft.FixedTimePoint(tf, z, J, self.mass_of(z[0]), self.phi_of(z[0]))
 
     def start(self, u):
-        return -u * u, np.array([u, u * u])
+        return self.T(u), np.array([u, -self.T(u)])
 
 
 def search(family, t0):
@@ -164,6 +165,32 @@ def test_a_fold_where_phi_keeps_its_sign_is_no_maximum_and_is_reported():
     fam = FoldFamily(lambda u: -1.0, lambda u: -u * u)
     s, found, best = search_fold(fam, -0.3)
     assert isinstance(found, str) and "folds" in found and best is None and s.folds == 1
+
+
+# t_f = u³ − u: folds at u = ∓1/√3, a maximum of t_f on the first and a minimum on the second;
+# φ = u − 1.2 < 0 on both: m_f rises to the first fold, falls along the middle branch, rises
+# past the second fold, and φ crosses from − to + in t_f at u = 1.2 (t_f 0.528), a maximum.
+CUBIC = (lambda u: u ** 3 - u, lambda u: 3.0 * u * u - 1.0)
+CUBIC_PHI = lambda u: u - 1.2
+CUBIC_MASS = lambda u: -(0.75 * u ** 4 - 1.2 * u ** 3 - 0.5 * u * u + 1.2 * u)       # −∫ φ T′ du
+
+
+@pytest.mark.parametrize("downhill_folds", [0, 1])
+def test_past_a_fold_where_phi_keeps_its_sign_the_walk_goes_on_downhill_only_when_asked(downhill_folds):
+    """The E8 450 situation: the branch through the start (u₀ = −0.7) rises in m_f to a fold
+    with φ ≠ 0. The local end game stops there; with downhill_folds 1 the walk goes on down
+    the middle branch, round the second fold, and up the third to its maximum, lighter than the
+    first fold but a free-time extremal."""
+    fam = FoldFamily(CUBIC_PHI, CUBIC_MASS, probe_days=0.02, shape=CUBIC, max_points=100)
+    fam.opt = dataclasses.replace(fam.opt, downhill_folds=downhill_folds, max_arc_step=8.0)
+    s, found, best = search_fold(fam, -0.7)
+    if downhill_folds == 0:
+        assert isinstance(found, str) and "folds" in found and best is None and s.folds == 1 and s.downhill == 0
+        return
+    left, right = found
+    assert s.folds == 2 and s.downhill == 1 and left.phi < 0.0 < right.phi and left.tf < right.tf
+    assert best.z[0] == pytest.approx(1.2, abs=1e-6) and best.tf == pytest.approx(1.2 ** 3 - 1.2, abs=1e-6)
+    assert min(p.z[0] for p in s.points) < -1.0 / np.sqrt(3.0) < max(p.z[0] for p in s.points)
 
 
 def test_the_march_gives_up_after_max_points():

@@ -30,7 +30,9 @@ its probes land on.
    even at δ/8 (or a probe fails on one side only, E8 500 rev), the family is followed on by
    pseudo-arclength in (z, t_f), round a fold in t_f onto the branch beyond it, uphill in m_f
    (dm_f/ds = −m₀ φ dt_f/ds along the family), until φ turns from − to + on one branch or the
-   family folds with φ ≠ 0 (a maximum of m_f along it that is no free-time extremal);
+   family folds with φ ≠ 0 (a maximum of m_f along it that is no free-time extremal), or, with
+   ``downhill_folds``, on past such folds, downhill along the family until m_f rises again,
+   to a maximum on a branch beyond (which can be lighter than the start: the record's gain);
 4. finds the root in that bracket by Brent's method (``scipy.optimize.brentq``, to
    ``tof_tol_days``; each value of φ a fixed-time Newton solve started from the bracket's
    solutions interpolated in t_f). Brent keeps a sign change between the ends of its bracket,
@@ -81,6 +83,9 @@ class MaximumOptions:
     time_rtol: float = 1e-8         # |t(K_f) − t_f| relative to t_f (t(K_f) carries the integration error)
     max_newton: int = 12            # Jacobians per fixed-time point (E8 500 near a fold: 9)
     chord_steps: int = 3            # steps per Jacobian after its Newton step (FixedTimeFamily.point); 0: Newton
+    downhill_folds: int = 0         # folds with φ ≠ 0 the arclength walk may pass, going on downhill in
+    # m_f to look for a maximum on the branches beyond (0: it stops at the first, MaximumSearch.follow_arc)
+    max_arc_step: float = 1.0       # the walk's longest step, in lengths of the secant it starts from
     verbose: bool = True
     label: str = ""
 
@@ -238,7 +243,7 @@ class MaximumSearch:
         self.delta = self.opt.probe_days * DAY / tu
         self.tu, self.m0 = tu, m0_kg
         self.points: list[FixedTimePoint] = []
-        self.arc_points = self.folds = 0
+        self.arc_points = self.folds = self.downhill = 0
 
     def log(self, msg):
         if self.opt.verbose:
@@ -325,27 +330,35 @@ class MaximumSearch:
         from the point before), corrector F = 0 with ⟨v, x − x_pred⟩ = 0
         (:meth:`FixedTimeFamily.correct`, from a fresh Jacobian: the tangent at the new point
         needs its own, as ∂F/∂z changes fast near a fold); h starts at a quarter of the secant's length, doubles
-        after each solved step up to that length, halves where the corrector fails (down to 1/64).
+        after each solved step up to ``max_arc_step`` times that length, halves where the corrector
+        fails (down to 1/64 of the secant).
         Along the family dm_f/ds = −m₀ φ dt_f/ds (the envelope relation): the march is uphill
         while −φ v_t > 0. A fold (v_t changes sign) where φ changes sign too keeps it uphill; one
         where φ keeps its sign is a maximum of m_f along the family that is no free-time
-        extremal (φ ≠ 0): the search stops there. Between two points with no fold, a crossing of
-        φ from − to + in t_f is the bracket of a local maximum."""
+        extremal (φ ≠ 0): the search stops there, or, up to ``downhill_folds`` times, goes on
+        downhill along the family until m_f rises again (past a minimum of m_f along it: a
+        further fold, or a crossing of φ from + to − in t_f) and on uphill as before (E8 450
+        rev, full model: the branch through the route's end point folds 0.001 d above it with
+        φ ≠ 0, docs/perturbed-e6-e7-e8.md, "twenty-fourth session"). Between two points with no
+        fold, a crossing of φ from − to + in t_f is the bracket of a local maximum, uphill or
+        down."""
         fam = self.family
         a, last = trail[-2], trail[-1]
         secant = last.x - a.x
         theta2 = secant[-1] ** 2 / max(float(secant[:-1] @ secant[:-1]), np.finfo(float).tiny)
         inner = lambda u, w: theta2 * float(u[:-1] @ w[:-1]) + float(u[-1] * w[-1])
         unit = lambda u, along: (u if inner(u, along) >= 0.0 else -u) / np.sqrt(inner(u, u))
-        h_max = np.sqrt(inner(secant, secant))
-        h, v = h_max / 4, unit(fam.tangent(last), secant)
+        h_secant = np.sqrt(inner(secant, secant))
+        h_max = self.opt.max_arc_step * h_secant
+        h, v = h_secant / 4, unit(fam.tangent(last), secant)
+        descending = False          # on a stretch past a fold with φ ≠ 0, where m_f falls along the family
         self.log(f"  arclength from t_f {self.days(last.tf):.5f} d")
         while len(self.points) < self.opt.max_points:
             x_pred = last.x + h * v
             p = fam.correct(x_pred, np.append(theta2 * v[:-1], v[-1]))
             if p is None:
-                self.log(f"  arclength step {h / h_max:.3g} of the secant failed")
-                if h <= h_max / 64:
+                self.log(f"  arclength step {h / h_secant:.3g} of the secant failed")
+                if h <= h_secant / 64:
                     return f"the fixed-time family could not be followed past t_f {self.days(last.tf):.5f} d (arclength)"
                 h *= 0.5
                 continue
@@ -357,10 +370,15 @@ class MaximumSearch:
             left, right = sorted((last, p), key=lambda q: q.tf)
             if not fold and left.phi < 0.0 < right.phi:
                 return left, right
-            if -p.phi * w[-1] < 0.0:
-                return (f"the family folds between t_f {self.days(last.tf):.5f} and {self.days(p.tf):.5f} d "
-                        "with phi != 0: m_f is largest along it at the fold, no local maximum in t_f" if fold else
-                        f"m_f decreases along the family at t_f {self.days(p.tf):.5f} d")
+            uphill = -p.phi * w[-1] > 0.0
+            if not uphill and not descending:
+                if not (fold and self.downhill < self.opt.downhill_folds):
+                    return (f"the family folds between t_f {self.days(last.tf):.5f} and {self.days(p.tf):.5f} d "
+                            "with phi != 0: m_f is largest along it at the fold, no local maximum in t_f" if fold else
+                            f"m_f decreases along the family at t_f {self.days(p.tf):.5f} d")
+                self.downhill += 1
+                self.log(f"  on downhill past the fold ({self.downhill} of {self.opt.downhill_folds})")
+            descending = not uphill
             last, v, h = p, w, min(2.0 * h, h_max)
         return f"no sign change of phi within {self.opt.max_points} fixed-time solves"
 
@@ -424,6 +442,7 @@ def maximise_final_mass(sol, options: MaximumOptions | None = None):
                               for p in sorted(search.points, key=lambda p: p.tf)],
                    "fixed_time_solves": family.solves, "jacobian_evaluations": family.jacobians,
                    "arclength_points": search.arc_points, "folds_passed": search.folds,
+                   "downhill_folds_passed": search.downhill,
                    "residual_evaluations": family.residuals,
                    "free_time_residual": family.free_time_residual(out.z),
                    "wall_time_s": time.perf_counter() - start})
