@@ -1090,6 +1090,11 @@ def test_the_end_game_rows_and_sentence_say_what_was_certified_moved_and_not_fou
     rows = R.tof_maximum_rows(payloads)
     assert rows[-1]["folds_passed"] == 1 and rows[-1]["arclength_points"] == 4
     assert "round the fold (e8\\_g44\\_moon\\_sun\\_n500)" in R.tof_maximum_sentence(rows)
+    assert "downhill" not in R.tof_maximum_sentence(rows) and rows[-1]["downhill_folds_passed"] is None
+    payloads["e8_g44_moon_sun_n450"] = rec("maximum", 289.7814, 290.4, -2.5e-3)
+    payloads["e8_g44_moon_sun_n450"]["extra"]["tof_maximum"].update(folds_passed=2, downhill_folds_passed=1)
+    text = R.tof_maximum_sentence(R.tof_maximum_rows(payloads))
+    assert "on downhill along the family" in text and "e8\\_g44\\_moon\\_sun\\_n450: $-2.50$ g" in text
     assert R.tof_maximum_sentence([]) == ""
 
 

@@ -90,7 +90,8 @@ def tables(payloads: dict, run: list, cases: dict, e6: dict, e8_n: list) -> dict
 
 
 TOF_MAXIMUM_COLUMNS = ["solve", "start", "status", "t0_days", "tof_days", "m_f_gain_g", "fixed_time_solves",
-                       "jacobian_evaluations", "arclength_points", "folds_passed", "wall_time_s"]
+                       "jacobian_evaluations", "arclength_points", "folds_passed", "downhill_folds_passed",
+                       "wall_time_s"]
 MOVED_DAYS = 1e-3       # an end game that changed Δt by more than this moved the extremal
 
 
@@ -99,7 +100,8 @@ def tof_maximum_rows(payloads: dict) -> list[dict]:
     where it started (``newton``: the free-time Newton solution; ``failed polish``: the best
     point of a free-time polish that did not converge, ``extra.polish_failure``), its status,
     the transfer time before (t0) and after it, the final mass it gained, its cost, and the
-    folds of the fixed-time family it went round (records before arclength have none)."""
+    folds of the fixed-time family it went round, and of those, the ones with φ ≠ 0 past which it
+    went on downhill in m_f (``MaximumOptions.downhill_folds``; older records have none)."""
     rows = []
     for key in sorted(payloads):
         extra = payloads[key].get("extra", {})
@@ -110,7 +112,7 @@ def tof_maximum_rows(payloads: dict) -> list[dict]:
                          "tof_days": rec.get("tof_days"),
                          "m_f_gain_g": rec["m_f_gain_kg"] * 1e3 if "m_f_gain_kg" in rec else None,
                          **{k: rec[k] for k in ("fixed_time_solves", "jacobian_evaluations", "wall_time_s")},
-                         **{k: rec.get(k) for k in ("arclength_points", "folds_passed")}})
+                         **{k: rec.get(k) for k in ("arclength_points", "folds_passed", "downhill_folds_passed")}})
     return rows
 
 
@@ -142,6 +144,12 @@ def tof_maximum_sentence(rows: list[dict]) -> str:
     if folds:
         text += (" Where the fixed-time family folds in $t_f$, the search follows it by pseudo-arclength "
                  "in $(z, t_f)$ round the fold (" + ", ".join(latex_escape(r["solve"]) for r in folds) + ").")
+    downhill = [r for r in certified if r.get("downhill_folds_passed")]
+    if downhill:
+        text += (" Where the branch through the start ends in a fold with $\\varphi \\neq 0$ (a maximum of "
+                 "$m_f$ along the family that is no free-time extremal), the search goes on downhill along the "
+                 "family to the maximum of a branch beyond, which can be lighter than the start (" +
+                 ", ".join(f"{latex_escape(r['solve'])}: ${r['m_f_gain_g']:+.2f}$ g" for r in downhill) + ").")
     if failed:
         text += (" The search did not certify " + ", ".join(
             f"{latex_escape(r['solve'])} ({latex_escape(r['status'])})" for r in failed) + ".")
