@@ -275,6 +275,9 @@ def test_an_interrupted_end_game_resumes_from_the_saved_free_time_solution(pertu
     back, extra, wall = P.end_game_start(path)
     np.testing.assert_array_equal(back.z, sol.z)
     assert back.transfer.perturbed and extra["continued_from"] == "chain" and wall == 123.0
+    from spaceopt import artifacts
+    start = extra["free_time_start_provenance"]      # the code and config the start was computed with
+    assert start["config_hash"] == artifacts.config_hash({"case": "e1 g44"}) and start["wall_time_s"] == 123.0
     path.with_suffix(".npz").write_bytes(b"truncated")
     assert P.end_game_start(path) is None
 

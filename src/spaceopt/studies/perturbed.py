@@ -475,12 +475,16 @@ load = multirev.load     # rebuilds perturbed solutions too (model.perturbed in 
 def end_game_start(path) -> tuple[Solution, dict, float] | None:
     """The free-time solution a solve saved (:func:`save`) before its end game, so that the end
     game of an interrupted run resumes from it: (solution, artifact extra, the wall time spent on
-    it), or None where there is none or it does not read back (checksums)."""
+    it), or None where there is none or it does not read back (checksums). The extra keeps the
+    saved solution's own provenance (``free_time_start_provenance``: the code and config it was
+    computed with, which can be older than the end game's, e.g. a solve from before the end game
+    existed given one, with a config that differs only in ``tof_maximum``)."""
     if not Path(path).exists():
         return None
     try:
         payload = artifacts.read_json(path)
-        return load(path), payload["extra"], float(payload["provenance"].get("wall_time_s") or 0.0)
+        extra = {**payload["extra"], "free_time_start_provenance": payload["provenance"]}
+        return load(path), extra, float(payload["provenance"].get("wall_time_s") or 0.0)
     except (ArtifactError, KeyError, OSError, ValueError):
         return None
 
