@@ -707,6 +707,12 @@ def test_paper_section_says_how_the_e8_counts_start():
     assert "a chain of its own from the zero guess" in chain_text
     assert "next smaller one" not in chain_text
     assert "next smaller one" in previous_text
+    assert "skip" not in chain_text
+    skipped = P.e8_skipped(PC)       # the config's skip_n_rev, as the paper names it
+    assert skipped == [(m, float(n)) for m, ns in PC["e8"]["skip_n_rev"].items() for n in ns]
+    text = R.paper_section([], {}, None, {}, [], e8_count_start="chain", smoothing=smoothing, e8_steps=steps,
+                           e8_skipped=[("g44_moon_sun", 450.0)])
+    assert "skip\\_n\\_rev" in text and "g44\\_moon\\_sun at 450 revolutions" in text
     assert r"$J_2$ switched on at $\varepsilon=10^{-2}$" in chain_text
     assert r"smoothing stage to $\varepsilon_f=10^{-5}$" in chain_text
     other = {**smoothing, "perturb_at_eps": 3e-2, "eps_blend": 5e-3}

@@ -5,8 +5,8 @@
 #   results/perturbed/e9_budget.json                    ΔΩ budget check (spec §6)
 #   results/perturbed/{e5,e6_date_scan,e7,e8,e9}.csv, reproduction.csv, paper_section.tex, figures/
 #   results/perturbed/tof_maximum.csv                   the free-time end game of every perturbed solve
-from spaceopt.studies.perturbed import (e8_count_start, e8_model_steps, e8_runs, e8_smoothing, scan_run_dates,
-                                        scan_source)
+from spaceopt.studies.perturbed import (e8_count_start, e8_model_steps, e8_runs, e8_skipped, e8_smoothing,
+                                        scan_run_dates, scan_source)
 
 check_section("perturbed", physical=lambda pc: (scan_run_dates(pc), e8_runs(pc)))
 PT = config["perturbed"]
@@ -257,7 +257,7 @@ rule perturbed_paper_section:
            _src=lib_sources("studies/perturbed_report")
     output: f"{PTDIR}/paper_section.tex"
     params: run=PT["run"], results=RESULTS, e8_count_start=e8_count_start(PT), e8_smoothing=e8_smoothing(PT),
-            e6_skipped=E6.get("skip_dates") or [],
+            e6_skipped=E6.get("skip_dates") or [], e8_skipped=e8_skipped(PT) if "e8" in PT["run"] else [],
             e8_steps=e8_model_steps(PT)
     log: f"{PTDIR}/logs/paper_section.log"
     script: "../scripts/perturbed_paper_section.py"

@@ -33,7 +33,8 @@ def main(sm):
                                                   smoothing=sm.params.e8_smoothing,
                                                   e8_steps=sm.params.e8_steps,
                                                   verify_rows=_read(sm.input.verify),
-                                                  tof_rows=_read(sm.input.tof_maximum)))
+                                                  tof_rows=_read(sm.input.tof_maximum),
+                                                  e8_skipped=sm.params.e8_skipped))
 
 
 if __name__ == "__main__":

@@ -423,12 +423,13 @@ def e8_route_text(count_start: str, smoothing: dict, steps: list) -> str:
 
 def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figures: list, *,
                   e8_count_start: str, smoothing: dict, e8_steps: list, verify_rows=(), tof_rows=(),
-                  resultsdir_macro=r"\resultsdir") -> str:
+                  e8_skipped=(), resultsdir_macro=r"\resultsdir") -> str:
     """LaTeX fragment of the §4.2 section; every number comes from the artifacts or the config.
     ``e8_count_start``, ``smoothing``, ``e8_steps``: how each E8 count and model starts
     (:func:`e8_route_text`); ``verify_rows``: the independent re-propagations
     (:func:`spaceopt.studies.verify.verification_rows`); ``tof_rows``: the free-time end games
-    (:func:`tof_maximum_rows`)."""
+    (:func:`tof_maximum_rows`); ``e8_skipped``: the (model, n_rev) the run leaves out
+    (``perturbed.e8.skip_n_rev``, :func:`spaceopt.studies.perturbed.e8_skipped`), named in the text."""
     n_pass = sum(r["status"] == "pass" for r in rows)
     n_fail = sum(r["status"] == "fail" for r in rows)
     n_miss = sum(r["status"] == "missing" for r in rows)
@@ -444,6 +445,10 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
              "(the perturbing accelerations of the two models blended). Each departure date of the scan starts from the "
              "unperturbed extremal in the same way, so every date is an independent solve. "
              + e8_route_text(e8_count_start, smoothing, e8_steps)
+             + (r"Left out of this run (\texttt{perturbed.e8.skip\_n\_rev}, counts whose route is known "
+                "not to converge; the E8 table has no row for them): "
+                + ", ".join(f"{latex_escape(m)} at {n:g} revolutions" for m, n in e8_skipped) + ". "
+                if e8_skipped else "")
              + tof_maximum_sentence(list(tof_rows))
              + f"Of the reproduction rows, {n_pass} pass, {n_fail} fail "
              f"and {n_miss} were not produced in this run (Table~\\ref{{tab:scoreboard}}). "
