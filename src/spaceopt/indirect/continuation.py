@@ -125,15 +125,15 @@ class ContinuationStats:
 
 GROWTH = ("iterations", "residual")
 POLISH_FAILED = "final Newton polish did not converge"     # the diagnosis reason (chain._run_multiple)
+ACCEPTED_UPDATES = ("always", "revert")
+ITERATION_GROWTH = {1: 2.0, 2: 1.5, 3: 1.2}
+SECANT_OVERSHOOT = 1.5      # the flat march's step past the root its secant predicts (_march_valley)
 
 
 def failure_statistics(diagnosis: dict) -> dict:
     """A failure's diagnosis without its unknowns (``z``, ``z_best``) and step history: the
     statistics of a stage that goes on from it (chain._run_multiple, chain.continue_in_model)."""
     return {k: v for k, v in diagnosis.items() if k not in ("z", "z_best", "history")}
-ACCEPTED_UPDATES = ("always", "revert")
-ITERATION_GROWTH = {1: 2.0, 2: 1.5, 3: 1.2}
-SECANT_OVERSHOOT = 1.5      # the flat march's step past the root its secant predicts (_march_valley)
 
 
 def _fingerprint(z0, tau0, tau1) -> str:

@@ -663,10 +663,8 @@ def e8_runs(pc: dict) -> list[tuple[str, float]]:
 def e8_skipped(pc: dict) -> list[tuple[str, float]]:
     """(model, n_rev) of the run list that ``skip_n_rev`` leaves out (:func:`e8_runs`), for the
     paper text: the tables have no row for them."""
-    e8 = pc["e8"]
     runs = set(e8_runs(pc))
-    return [(m, float(n)) for m in e8.get("run_models", pc["cases"]["e8"]["models"])
-            for n in e8["run_n_rev"] if (m, float(n)) not in runs]
+    return [r for r in e8_runs({**pc, "e8": {**pc["e8"], "skip_n_rev": None}}) if r not in runs]
 
 
 # ---------------------------------------------------------------- E9 ΔΩ budget
