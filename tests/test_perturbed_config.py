@@ -138,6 +138,11 @@ def test_the_e6_summary_and_paper_text_name_the_dates_left_out():
                            smoothing={"eps_final": 1e-5, "eps_blend": 1e-2, "perturb_at_eps": 1e-2,
                                       "model_step_at_eps": 1e-2}, e8_steps=[])
     assert "Over 2 departure dates" in text and "skip\\_dates}): 2021-05-02." in text
+    families = "Continued in the departure epoch ... form 2 families: 2021-05-01; 2021-05-03."
+    with_families = R.paper_section([], {}, None, summary, [], e8_count_start="chain",
+                                    smoothing={"eps_final": 1e-5, "eps_blend": 1e-2, "perturb_at_eps": 1e-2,
+                                               "model_step_at_eps": 1e-2}, e8_steps=[], e6_families=families)
+    assert "2021-05-02. " + families in with_families and families not in text
 
 
 def test_raan_budget_matches_spec_section_6():

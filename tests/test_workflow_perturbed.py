@@ -4,7 +4,7 @@ import re
 from pathlib import Path
 
 import yaml
-from spaceopt.studies import perturbed as P
+from spaceopt.studies import perturbed as P, scan_families as F
 from workflow_skeleton import planned_rules, repo_snakemake as smk
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -27,9 +27,10 @@ def test_full_reproduction_plans_e6_dates_from_the_unperturbed_solve_and_e8_coun
     """E6: every date from the unperturbed E5 OT, but the dates of ``start_from`` from their named
     neighbour; E8: each revolution count of the first model from the zero guess (count_start:
     chain) or from the next smaller one (previous), every later model from the previous model
-    at the same count."""
+    at the same count. E6 families: a link job per ordered pair of neighbouring dates, from the
+    first date's solve to the second's, but none where the scan started the one from the other."""
     rc, out = smk("-n", "--forceall", "--cores", "2", "results/perturbed/e6_date_scan.csv",
-                  "results/perturbed/e8.csv")
+                  "results/perturbed/e8.csv", "results/perturbed/e6_families.csv")
     assert rc == 0, out[-2000:]
     jobs = planned_rules(out)
     assert {"e6", "e8"} <= set(PT["run"])
@@ -46,6 +47,12 @@ def test_full_reproduction_plans_e6_dates_from_the_unperturbed_solve_and_e8_coun
         else:                                        # independent jobs, all from one solve
             assert "results/perturbed/e5/unperturbed.json" in inputs
             assert not any(i.startswith("results/perturbed/e6/") for i in inputs)
+    links = planned_inputs(out, "perturbed_e6_link")
+    assert len(links) == jobs["perturbed_e6_link"] == len(F.link_pairs(PT)) == 2 * 30 - len(F.start_pairs(PT))
+    for output, inputs in links.items():
+        a, b = Path(output).stem.split("_to_")
+        assert inputs[:2] == [f"results/perturbed/e6/{a}.json", f"results/perturbed/e6/{b}.json"]
+        assert start_from.get(b) != a                # b's solve is that link
     e8 = planned_inputs(out, "perturbed_e8")
     ns = sorted(PT["e8"]["run_n_rev"])
     models = PT["cases"]["e8"]["models"]

@@ -1,12 +1,15 @@
 # Dissertation §4.2: perturbed multi-revolution transfers E5-E9 (spec 02-multirev §4-§6).
 #   results/perturbed/<case>/<model>.{json,npz,rrd}     E5, E7, E9 chain solves
 #   results/perturbed/e6/<date>.{json,npz,rrd}          E6 departure scan (each date from the unperturbed OT)
+#   results/perturbed/e6_links/<from>_to_<to>.json      E6 date a's extremal continued to its neighbour b
+#   results/perturbed/e6_families.csv                   which neighbouring dates lie on one family
 #   results/perturbed/e8/<model>_n<n>.{json,npz,rrd}    E8 (n to n; perturbed from unperturbed at n)
 #   results/perturbed/e9_budget.json                    ΔΩ budget check (spec §6)
 #   results/perturbed/{e5,e6_date_scan,e7,e8,e9}.csv, reproduction.csv, paper_section.tex, figures/
 #   results/perturbed/tof_maximum.csv                   the free-time end game of every perturbed solve
 from spaceopt.studies.perturbed import (e8_count_start, e8_model_steps, e8_runs, e8_skipped, e8_smoothing,
                                         scan_run_dates, scan_source)
+from spaceopt.studies.scan_families import link_pairs, link_settings, start_pairs
 
 check_section("perturbed", physical=lambda pc: (scan_run_dates(pc), e8_runs(pc)))
 PT = config["perturbed"]
@@ -114,6 +117,39 @@ rule perturbed_e6_date:
     benchmark: f"{PTDIR}/benchmarks/e6_{{date}}.tsv"
     resources: mem_mb=4000, runtime=60
     script: "../scripts/perturbed_solve.py"
+
+
+# E6 families: each date's extremal continued in the epoch to its neighbours, compared with the
+# scan's extremal there (spaceopt.studies.scan_families; perturbed.e6.links, null: off)
+E6_LINKS = link_settings(PT) if "e6" in PT["run"] else None
+E6_LINK_PAIRS = link_pairs(PT) if E6_LINKS else []
+
+
+def pt_e6_link_files():
+    return [f"{PTDIR}/e6_links/{a}_to_{b}.json" for a, b in E6_LINK_PAIRS]
+
+
+rule perturbed_e6_link:
+    input: start=f"{PTDIR}/e6/{{a}}.json", scan=f"{PTDIR}/e6/{{b}}.json", src=PT_SRC,
+           _src=lib_sources("studies/scan_families"), eph=pt_ephemeris(E6["case"], E6["model"])
+    output: f"{PTDIR}/e6_links/{{a}}_to_{{b}}.json"
+    wildcard_constraints: a=r"\d{4}-\d{2}-\d{2}", b=r"\d{4}-\d{2}-\d{2}"
+    params: cfg=lambda w: {**pt_config_for(E6["case"], E6["model"]), "links": E6_LINKS},
+            case=E6["case"], model=E6["model"], epoch=lambda w: f"{w.b}T{E6.get('time_utc', '12:00:00')}",
+            results=RESULTS
+    log: f"{PTDIR}/logs/e6_link_{{a}}_to_{{b}}.log"
+    benchmark: f"{PTDIR}/benchmarks/e6_link_{{a}}_to_{{b}}.tsv"
+    resources: mem_mb=4000, runtime=60
+    script: "../scripts/perturbed_e6_link.py"
+
+
+rule perturbed_e6_families:
+    input: links=pt_e6_link_files(), dates=[f"{PTDIR}/e6/{d}.json" for d in E6_DATES],
+           _src=lib_sources("studies/scan_families")
+    output: f"{PTDIR}/e6_families.csv"
+    params: dates=E6_DATES, starts=start_pairs(PT), settings=E6_LINKS
+    log: f"{PTDIR}/logs/e6_families.log"
+    script: "../scripts/perturbed_e6_families.py"
 
 
 # ---------------------------------------------------------------- E8 revolution counts
@@ -253,16 +289,17 @@ rule perturbed_paper_section:
            verify=f"{PTDIR}/verification.csv", tof_maximum=f"{PTDIR}/tof_maximum.csv",
            budget=f"{PTDIR}/e9_budget.json",
            figures=[f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()],
+           families=[f"{PTDIR}/e6_families.csv"] if E6_LINKS else [],
            **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},
            _src=lib_sources("studies/perturbed_report")
     output: f"{PTDIR}/paper_section.tex"
     params: run=PT["run"], results=RESULTS, e8_count_start=e8_count_start(PT), e8_smoothing=e8_smoothing(PT),
             e6_skipped=E6.get("skip_dates") or [], e8_skipped=e8_skipped(PT) if "e8" in PT["run"] else [],
-            e8_steps=e8_model_steps(PT)
+            e8_steps=e8_model_steps(PT), e6_dates=E6_DATES, e6_links=E6_LINKS
     log: f"{PTDIR}/logs/paper_section.log"
     script: "../scripts/perturbed_paper_section.py"
 
 
 ALL_TARGETS += [f"{PTDIR}/{t}.csv" for t in PT_TABLES] + [
     f"{PTDIR}/reproduction.csv", f"{PTDIR}/paper_section.tex", f"{PTDIR}/e9_budget.json"] + [
-    f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()]
+    f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()] + ([f"{PTDIR}/e6_families.csv"] if E6_LINKS else [])

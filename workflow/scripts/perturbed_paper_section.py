@@ -7,7 +7,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _step import run_step  # noqa: E402
 
 from spaceopt import artifacts  # noqa: E402
-from spaceopt.studies import perturbed_report as R  # noqa: E402
+from spaceopt.studies import perturbed_report as R, scan_families as F  # noqa: E402
 
 
 def _read(path):
@@ -28,13 +28,15 @@ def main(sm):
     e6 = _read(sm.input.e6_date_scan)
     unp = next((r for r in e6 if r["model"] == "unperturbed"), None)
     e6sum = R.e6_summary(e6, unp, sm.params.e6_skipped)
+    families = (F.families_sentence(sm.params.e6_dates, _read(sm.input.families[0]), sm.params.e6_links["mass_tol_kg"])
+                if sm.input.families else "")
     Path(sm.output[0]).write_text(R.paper_section(rows, {}, budget, e6sum, list(sm.input.figures),
                                                   e8_count_start=sm.params.e8_count_start,
                                                   smoothing=sm.params.e8_smoothing,
                                                   e8_steps=sm.params.e8_steps,
                                                   verify_rows=_read(sm.input.verify),
                                                   tof_rows=_read(sm.input.tof_maximum),
-                                                  e8_skipped=sm.params.e8_skipped))
+                                                  e8_skipped=sm.params.e8_skipped, e6_families=families))
 
 
 if __name__ == "__main__":

@@ -423,13 +423,15 @@ def e8_route_text(count_start: str, smoothing: dict, steps: list) -> str:
 
 def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figures: list, *,
                   e8_count_start: str, smoothing: dict, e8_steps: list, verify_rows=(), tof_rows=(),
-                  e8_skipped=(), resultsdir_macro=r"\resultsdir") -> str:
+                  e8_skipped=(), e6_families: str = "", resultsdir_macro=r"\resultsdir") -> str:
     """LaTeX fragment of the §4.2 section; every number comes from the artifacts or the config.
     ``e8_count_start``, ``smoothing``, ``e8_steps``: how each E8 count and model starts
     (:func:`e8_route_text`); ``verify_rows``: the independent re-propagations
     (:func:`spaceopt.studies.verify.verification_rows`); ``tof_rows``: the free-time end games
     (:func:`tof_maximum_rows`); ``e8_skipped``: the (model, n_rev) the run leaves out
-    (``perturbed.e8.skip_n_rev``, :func:`spaceopt.studies.perturbed.e8_skipped`), named in the text."""
+    (``perturbed.e8.skip_n_rev``, :func:`spaceopt.studies.perturbed.e8_skipped`), named in the text;
+    ``e6_families``: the scan's families (:func:`spaceopt.studies.scan_families.families_sentence`,
+    plain text)."""
     n_pass = sum(r["status"] == "pass" for r in rows)
     n_fail = sum(r["status"] == "fail" for r in rows)
     n_miss = sum(r["status"] == "missing" for r in rows)
@@ -475,7 +477,8 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
                   f"{e6sum['dm_mean_kg']:+.3f} kg; the transfer time changes by "
                   f"{e6sum['dt_mean_days']:+.3f} d on average."
                   + (f" Left out of this run (\\texttt{{perturbed.e6.skip\\_dates}}): "
-                     f"{latex_escape(e6sum['skipped_dates'])}." if e6sum.get("skipped_dates") else ""), ""]
+                     f"{latex_escape(e6sum['skipped_dates'])}." if e6sum.get("skipped_dates") else "")
+                  + (" " + latex_escape(e6_families) if e6_families else ""), ""]
     lines.append(r"\input{" + resultsdir_macro + "/perturbed/tables/perturbed.tex}")
     for f in figures:
         stem = Path(f).stem

@@ -1,0 +1,107 @@
+"""The E6 scan's extremal families (spaceopt.studies.scan_families): which link jobs the config
+plans, how links join dates into families, the paper sentence, and one real link between two
+departure epochs of a small perturbed problem."""
+import copy
+import dataclasses
+from pathlib import Path
+
+import pytest
+import yaml
+
+from spaceopt.indirect.continuation import ContinuationOptions
+from spaceopt.studies import scan_families as F
+
+ROOT = Path(__file__).resolve().parents[1]
+PT = yaml.safe_load((ROOT / "config/studies/perturbed.yaml").read_text())["perturbed"]
+SETTINGS = {"directions": "both", "max_steps": 40, "mass_tol_kg": 1e-5, "tof_tol_days": 1e-3}
+
+
+def _pc(**e6):
+    pc = copy.deepcopy(PT)
+    pc["e6"].update({"first_date": "2021-05-01", "last_date": "2021-05-05", "start_from": {},
+                     "skip_dates": [], "links": SETTINGS, **e6})
+    return pc
+
+
+def test_links_join_neighbouring_run_dates_both_ways_except_where_the_scan_started_one_from_the_other():
+    pc = _pc(start_from={"2021-05-03": "2021-05-02"}, skip_dates=["2021-05-05"])
+    assert F.start_pairs(pc) == [("2021-05-02", "2021-05-03")]
+    pairs = F.link_pairs(pc)
+    assert ("2021-05-02", "2021-05-03") not in pairs and ("2021-05-03", "2021-05-02") in pairs
+    assert ("2021-05-01", "2021-05-02") in pairs and ("2021-05-02", "2021-05-01") in pairs
+    assert not any("2021-05-05" in p for p in pairs) and len(pairs) == 5
+    forward = F.link_pairs(_pc(links={**SETTINGS, "directions": "forward"}))
+    assert forward == [(f"2021-05-0{i}", f"2021-05-0{i + 1}") for i in range(1, 5)]
+    assert F.link_pairs(_pc(links=None)) == []
+
+
+def _row(a, b, status, m=None, t=None, scan_m=960.0, scan_t=60.0):
+    return {"from_date": a, "to_date": b, "status": status, "m_f_kg": m, "tof_days": t,
+            "scan_m_f_kg": scan_m, "scan_tof_days": scan_t}
+
+
+def test_families_are_runs_of_dates_joined_by_a_same_or_start_link_either_way():
+    dates = ["d1", "d2", "d3", "d4", "d5"]
+    rows = [_row("d1", "d2", "same", 960.0, 60.0), _row("d2", "d1", "other", 959.0, 61.0),
+            _row("d3", "d2", "failed"), _row("d2", "d3", "other", 960.002, 62.0),   # joined in neither direction
+            _row("d4", "d3", "start"), _row("d4", "d5", "not certified")]
+    assert F.segments(dates, rows) == [["d1", "d2"], ["d3", "d4"], ["d5"]]
+    heavier = F.heavier_elsewhere(rows, 1e-5)
+    assert [(r["from_date"], r["to_date"]) for r in heavier] == [("d2", "d3")]
+    text = F.families_sentence(dates, rows, 1e-5)
+    assert "form 3 families: d1 to d2; d3 to d4; d5" in text
+    assert "1 same, 2 other, 1 not certified, 1 failed, 1 start" in text
+    assert "At d3 (from d2: +0.0020 kg, +2.000 d) a neighbour's family is heavier" in text
+    lighter = [r for r in rows if r["to_date"] != "d3"]
+    assert "No neighbour's family" in F.families_sentence(dates, lighter, 1e-5)
+    assert F.families_sentence(dates, [], 1e-5) == ""
+
+
+def test_same_extremal_needs_both_the_mass_and_the_time_to_agree():
+    assert F.same_extremal(960.0, 60.0, 960.0 + 5e-6, 60.0005, SETTINGS)
+    assert not F.same_extremal(960.0, 60.0, 960.0 + 2e-5, 60.0, SETTINGS)
+    assert not F.same_extremal(960.0, 60.0, 960.0, 60.002, SETTINGS)
+
+
+@pytest.fixture(scope="module")
+def two_epochs():
+    """E1 OT 15 N (2 revolutions) with EGM96 4×4 on the Earth rotation angle, solved from the
+    unperturbed extremal at two departure epochs 6 h apart (the geopotential turns by 90°)."""
+    from spaceopt.indirect import chain
+    from spaceopt.studies import multirev, perturbed as P
+
+    quiet = ContinuationOptions(verbose=False)
+    cfg = yaml.safe_load((ROOT / "config" / "studies" / "multirev.yaml").read_text())["multirev"]
+    tr = multirev.transfer_from_config(cfg, "e1")
+    ot = chain.solve_ot(chain.solve_lp(tr, quiet), 15.0, quiet)
+    pert = {"geopotential": {"degree": 4, "order": 4}, "earth_angle": "era"}
+    pc = {"numerics": {"tof_maximum": {"probe_days": 0.01}}, "cases": {"e1": {}}}
+    out = {}
+    for epoch in ("2021-05-09T12:00:00", "2021-05-09T18:00:00"):
+        tr_p = dataclasses.replace(tr, perturbations=pert, epoch_utc=epoch)
+        sol, _ = P.maximise_in_tof(P.perturb_from_unperturbed(ot, tr_p, epoch, options=quiet), pc, "e1", epoch)
+        out[epoch] = (sol, multirev.scalars(sol, multirev.sample(sol, F.SAMPLES_PER_REV)))
+    return pc, out
+
+
+def test_a_link_continued_in_the_epoch_lands_on_the_extremal_solved_at_the_new_date(two_epochs):
+    pc, sols = two_epochs
+    (a, (sol_a, _)), (b, (sol_b, scan_b)) = sols.items()
+    rec = F.continue_to(sol_a, sol_b.transfer, scan_b, pc, "e1", "e1 link", SETTINGS)
+    assert rec["status"] == "same", rec
+    assert abs(rec["dm_f_g"]) < 1e-2 and rec["tof_maximum"]["certified"] and rec["jacobian_evaluations"] > 0
+    assert not F.same_extremal(rec["m_f_kg"], rec["tof_days"], scan_b["m_f_kg"] - 0.05, scan_b["tof_days"], SETTINGS)
+
+
+def test_a_continuation_that_does_not_reach_the_new_date_is_a_result_not_an_error(monkeypatch):
+    """A fold of a's family in the epoch (or a stall) gives the link status 'failed' with the
+    error and the path's cost; the job still writes its record."""
+    from spaceopt.errors import ConvergenceError
+
+    def fold(*args, **kwargs):
+        raise ConvergenceError("e6 link: the arclength path turned back at tau 0.61",
+                               {"jacobian_evaluations": 17, "wall_time_s": 42.0})
+    monkeypatch.setattr(F.P, "warm_start", fold)
+    rec = F.continue_to(None, None, {"m_f_kg": 960.0, "tof_days": 60.0}, {}, "e5", "link", SETTINGS)
+    assert rec["status"] == "failed" and "tau 0.61" in rec["error"]
+    assert rec["jacobian_evaluations"] == 17 and rec["scan_m_f_kg"] == 960.0 and "m_f_kg" not in rec
