@@ -1039,6 +1039,26 @@ def test_e6_figures_break_the_lines_at_the_dates_left_out(tmp_path, monkeypatch)
         assert any(ln[0] == [3, 3] for ln in lines[1:])             # the vertical mark at day 3
 
 
+def test_e6_figure_draws_one_line_per_family_and_the_other_families_reached_at_a_date(tmp_path, monkeypatch):
+    """Fig. 4.2.1.4 with the scan's families: no line across a jump (2/3 May), a line across a
+    date left out inside a family (4 May, a NaN), and the extremal a neighbour's family reaches
+    at a date as an open marker."""
+    from spaceopt.studies import perturbed_figures as F
+    drawn = []
+    monkeypatch.setattr(F, "save_figure", lambda fig, path: drawn.append(
+        [(list(ln.get_xdata()), list(ln.get_ydata()), ln.get_linestyle()) for ln in fig.axes[0].lines]))
+    dates = ["2021-05-01", "2021-05-02", "2021-05-03", "2021-05-05"]
+    rows = [{"date": d, "model": "g44_moon_sun", "m_f_kg": 956.0 + k, "tof_days": 60.0} for k, d in enumerate(dates)]
+    link = lambda a, b, status, m=None: {"from_date": a, "to_date": b, "status": status, "m_f_kg": m, "tof_days": 61.0}
+    families = [link("2021-05-01", "2021-05-02", "same"), link("2021-05-02", "2021-05-03", "other", 958.5),
+                link("2021-05-03", "2021-05-05", "start")]
+    F.date_scan(rows, tmp_path / "scan", skipped=["2021-05-04"], families=families)
+    (x1, y1, ls1), (x2, y2, ls2), (xo, yo, lso) = drawn[0][:3]
+    assert (x1, y1) == ([1, 2], [956.0, 957.0]) and ls1 == "-"
+    assert x2 == [3, 4, 5] and math.isnan(y2[1]) and (y2[0], y2[2]) == (958.0, 959.0)
+    assert (xo, yo, lso) == ([3], [958.5], "None")
+
+
 def test_the_verification_sentence_states_the_worst_errors_and_the_perturbation_scale():
     from spaceopt.studies.verify import verification_sentence
     row = {"final_a_error_km": -0.2, "final_e_error": 1e-6, "final_i_error_deg": 3e-6, "final_mass_error_kg": 1e-5,

@@ -275,7 +275,8 @@ def pt_figure_names():
 
 
 rule perturbed_figures:
-    input: **pt_stage_jsons(), _src=lib_sources("studies/perturbed_figures", "report/figures")
+    input: **pt_stage_jsons(), _src=lib_sources("studies/perturbed_figures", "studies/scan_families", "report/figures"),
+           families=[f"{PTDIR}/e6_families.csv"] if E6_LINKS else []
     output: [f"{PTDIR}/figures/{f}.{ext}" for f in pt_figure_names() for ext in ("pdf", "png")]
     params: run=PT["run"], cases={c: {"models": PT["cases"][c]["models"]} for c in PT["cases"]},
             e6=E6, e8_n=E8["run_n_rev"], style=PT.get("figures", {})

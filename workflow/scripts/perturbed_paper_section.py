@@ -1,5 +1,4 @@
 """The perturbed study's paper fragment (results/perturbed/paper_section.tex) from its artifacts."""
-import csv
 import sys
 from pathlib import Path
 
@@ -7,19 +6,8 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _step import run_step  # noqa: E402
 
 from spaceopt import artifacts  # noqa: E402
+from spaceopt.report.tables import read_csv as _read  # noqa: E402
 from spaceopt.studies import perturbed_report as R, scan_families as F  # noqa: E402
-
-
-def _read(path):
-    with open(path) as fh:
-        rows = list(csv.DictReader(fh))
-    for r in rows:
-        for k, v in r.items():
-            try:
-                r[k] = float(v)
-            except (TypeError, ValueError):
-                pass
-    return rows
 
 
 def main(sm):

@@ -7,6 +7,19 @@ from pathlib import Path
 import numpy as np
 
 
+def read_csv(path) -> list[dict]:
+    """Rows (dicts) of a CSV written by :func:`write_csv`: every cell that parses as a number a float."""
+    with open(path, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    for r in rows:
+        for k, v in r.items():
+            try:
+                r[k] = float(v)
+            except (TypeError, ValueError):
+                pass
+    return rows
+
+
 def write_csv(path, rows, columns) -> None:
     """Write ``rows`` (dicts) with ``columns``; floats as ``repr`` so that a re-read is exact."""
     path = Path(path)

@@ -14,6 +14,7 @@ import numpy as np  # noqa: E402
 
 from ..report.figures import save_figure  # noqa: E402
 from ..constants import DAY  # noqa: E402
+from .scan_families import segments  # noqa: E402
 
 COLORS = {"unperturbed": "tab:blue", "j2": "tab:green", "g44": "tab:orange", "g44_moon_sun": "tab:red"}
 
@@ -128,15 +129,27 @@ def _mark_skipped(ax, skipped: list):
         ax.axvline(_day(d), color="0.6", ls=":", lw=1, label="left out (skip_dates)" if k == 0 else None)
 
 
-def date_scan(rows: list, path, title="E6: departure date scan, May 2021", skipped=()):
+def date_scan(rows: list, path, title="E6: departure date scan, May 2021", skipped=(), families=()):
     """Fig. 4.2.1.4: m_f and Δt against the departure day, the unperturbed line dashed; the
-    dates of ``skipped`` (left out of the run) break the curve and are marked."""
-    pert = [r for r in rows if r["model"] != "unperturbed"]
+    dates of ``skipped`` (left out of the run) break the curve and are marked. ``families``: the
+    rows of ``e6_families.csv`` (:mod:`spaceopt.studies.scan_families`); the curve is then drawn
+    one family at a time (no line across a jump), and the other extremals that a neighbour's
+    family reaches at a date are drawn as open circles."""
+    pert = sorted((r for r in rows if r["model"] != "unperturbed"), key=lambda r: r["date"])
     unp = [r for r in rows if r["model"] == "unperturbed"]
-    day = [_day(r["date"]) for r in pert]
+    by_date = {r["date"]: r for r in pert}
+    segs = segments(list(by_date), list(families)) if families else [list(by_date)]
+    others = [f for f in families if f["status"] == "other"]
     fig, axes = plt.subplots(1, 2, figsize=(11, 3.8))
     for ax, k, lab in ((axes[0], "m_f_kg", "m_f, kg"), (axes[1], "tof_days", "Δt, days")):
-        ax.plot(*_with_gaps(day, [r[k] for r in pert], skipped), "o-", color="tab:red", ms=3, label="perturbed")
+        for i, seg in enumerate(segs):
+            inside = [d for d in skipped if seg[0] < d < seg[-1]]
+            ax.plot(*_with_gaps([_day(d) for d in seg], [by_date[d][k] for d in seg], inside), "o-",
+                    color="tab:red", ms=3, label=("perturbed" + (", one line per family" if families else ""))
+                    if i == 0 else None)
+        if others:
+            ax.plot([_day(f["to_date"]) for f in others], [f[k] for f in others], "o", mfc="none",
+                    color="tab:green", ms=6, label="a neighbour's family continued to the date")
         if unp:
             ax.axhline(unp[0][k], color="tab:blue", ls="--", label="unperturbed")
         _mark_skipped(ax, skipped)
