@@ -4,7 +4,8 @@ Three parts, all written to ``results/benchmarks/perturbed.json`` (parts not rer
 
 1. ``measured``: wall times read from the solve artifacts that exist (provenance wall_time_s of
    results/perturbed/**/<stage>.json): each E5/E7/E9 chain, every E6 date and the scan total,
-   every E8 solve, and the DAG's whole route to each perturbed E8 solve (``e8_route_s``).
+   every E8 solve, and the DAG's whole route to each perturbed E8 solve (``e8_route_s``); the
+   E6 family links (``e6_links``: count, summed wall time and Jacobians).
 2. ``propagation``: the cost of one shooting evaluation (trajectory + sensitivity columns) of the
    E8 problem, unperturbed, J2 and perturbed (4×4 + Moon + Sun), over ``--revs`` revolutions at a
    fixed guess, after compilation, per revolution. With ``--baseline REV`` the same measurement
@@ -79,6 +80,10 @@ def measured(results: Path) -> dict:
         out["e6_scan_total_s"] = sum(r["wall_time_s"] or 0.0 for r in out["e6"].values())
         out["e6_dates"] = len(out["e6"])
     out["e8_route_s"] = e8_route_times(out["e8"])
+    links = [artifacts.read_json(p)["link"] for p in sorted(base.glob("e6_links/*.json"))]
+    if links:   # the E6 family links (studies.scan_families): beside the scan, not part of it
+        out["e6_links"] = {"links": len(links), "total_s": sum(r["wall_time_s"] for r in links),
+                           "jacobian_evaluations": sum(r.get("jacobian_evaluations") or 0 for r in links)}
     return out
 
 
