@@ -417,6 +417,7 @@ def test_arclength_gives_up_a_path_that_runs_back_below_the_floor():
     with pytest.raises(ConvergenceError, match="turned back") as err:
         arc.run(np.array([1.0]))
     assert -1.5 < err.value.diagnosis["tau"] < -1.0 and arc.stats.steps < 100
+    assert 0.45 < err.value.diagnosis["tau_max"] <= 0.5         # where the path turned back
 
 
 def test_step_cap_grows_with_the_revolutions_and_reaches_the_shooting_problem():

@@ -43,7 +43,7 @@ def _row(a, b, status, m=None, t=None, scan_m=960.0, scan_t=60.0):
 def test_families_are_runs_of_dates_joined_by_a_same_or_start_link_either_way():
     dates = ["d1", "d2", "d3", "d4", "d5"]
     rows = [_row("d1", "d2", "same", 960.0, 60.0), _row("d2", "d1", "other", 959.0, 61.0),
-            _row("d3", "d2", "failed"), _row("d2", "d3", "other", 960.002, 62.0),   # joined in neither direction
+            {**_row("d3", "d2", "failed"), "tau_max": 0.61}, _row("d2", "d3", "other", 960.002, 62.0),   # joined in neither direction
             _row("d4", "d3", "start"), _row("d4", "d5", "not certified")]
     assert F.segments(dates, rows) == [["d1", "d2"], ["d3", "d4"], ["d5"]]
     heavier = F.heavier_elsewhere(rows, 1e-5)
@@ -52,6 +52,7 @@ def test_families_are_runs_of_dates_joined_by_a_same_or_start_link_either_way():
     assert "form 3 families: d1 to d2; d3 to d4; d5" in text
     assert "1 same, 2 other, 1 not certified, 1 failed, 1 start" in text
     assert "At d3 (from d2: +0.0020 kg, +2.000 d) a neighbour's family is heavier" in text
+    assert "the family of d3 turns back 0.610 of the way to d2." in text
     lighter = [r for r in rows if r["to_date"] != "d3"]
     assert "No neighbour's family" in F.families_sentence(dates, lighter, 1e-5)
     assert F.families_sentence(dates, [], 1e-5) == ""
@@ -100,8 +101,9 @@ def test_a_continuation_that_does_not_reach_the_new_date_is_a_result_not_an_erro
 
     def fold(*args, **kwargs):
         raise ConvergenceError("e6 link: the arclength path turned back at tau 0.61",
-                               {"jacobian_evaluations": 17, "wall_time_s": 42.0})
+                               {"jacobian_evaluations": 17, "wall_time_s": 42.0, "tau_max": 0.61})
     monkeypatch.setattr(F.P, "warm_start", fold)
     rec = F.continue_to(None, None, {"m_f_kg": 960.0, "tof_days": 60.0}, {}, "e5", "link", SETTINGS)
     assert rec["status"] == "failed" and "tau 0.61" in rec["error"]
     assert rec["jacobian_evaluations"] == 17 and rec["scan_m_f_kg"] == 960.0 and "m_f_kg" not in rec
+    assert rec["tau_max"] == 0.61

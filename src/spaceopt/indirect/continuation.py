@@ -288,6 +288,8 @@ class Continuation:
         return ConvergenceError(
             f"{self.opt.label}: continuation failed at tau={tau:.6g} ({reason})",
             {"reason": reason, "tau": tau, "step": h, "z": np.asarray(z).tolist(),
+             # the largest τ the path reached: where it turned back (a fold), or stalled
+             "tau_max": max([tau, *(e["tau"] for e in self.stats.history if "iters" in e)]),
              "residual": self.stats.residual, **self.stats.as_dict(),
              "history": self.stats.history[-20:]})
 
