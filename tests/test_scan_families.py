@@ -43,16 +43,17 @@ def _row(a, b, status, m=None, t=None, scan_m=960.0, scan_t=60.0):
 def test_families_are_runs_of_dates_joined_by_a_same_or_start_link_either_way():
     dates = ["d1", "d2", "d3", "d4", "d5"]
     rows = [_row("d1", "d2", "same", 960.0, 60.0), _row("d2", "d1", "other", 959.0, 61.0),
-            {**_row("d3", "d2", "failed"), "tau_max": 0.61}, _row("d2", "d3", "other", 960.002, 62.0),   # joined in neither direction
-            _row("d4", "d3", "start"), _row("d4", "d5", "not certified")]
+            {**_row("d3", "d2", "failed"), "tau_max": 0.61, "reason": "the path turned back and ran below tau = -1"}, _row("d2", "d3", "other", 960.002, 62.0),   # joined in neither direction
+            _row("d4", "d3", "start"), _row("d4", "d5", "not certified"),
+            {**_row("d5", "d4", "failed"), "tau_max": 0.25, "reason": "step size underflow"}]
     assert F.segments(dates, rows) == [["d1", "d2"], ["d3", "d4"], ["d5"]]
     heavier = F.heavier_elsewhere(rows, 1e-5)
     assert [(r["from_date"], r["to_date"]) for r in heavier] == [("d2", "d3")]
     text = F.families_sentence(dates, rows, 1e-5)
     assert "form 3 families: d1 to d2; d3 to d4; d5" in text
-    assert "1 same, 2 other, 1 not certified, 1 failed, 1 start" in text
+    assert "1 same, 2 other, 1 not certified, 2 failed, 1 start" in text
     assert "At d3 (from d2: +0.0020 kg, +2.000 d) a neighbour's family is heavier" in text
-    assert "the family of d3 turns back 0.610 of the way to d2." in text
+    assert "the family of d3 turns back 0.610 of the way to d2, the path from d5 stops 0.250 of the way to d4." in text
     lighter = [r for r in rows if r["to_date"] != "d3"]
     assert "No neighbour's family" in F.families_sentence(dates, lighter, 1e-5)
     assert F.families_sentence(dates, [], 1e-5) == ""

@@ -19,8 +19,9 @@ one the scan found at date b. The continuation is :func:`spaceopt.studies.pertur
   says whether the scan's extremal at b is the heavier of the two;
 * ``not certified``: the end game certifies no maximum from the continued point;
 * ``failed``: the continuation does not reach b within ``max_steps`` steps per path (a fold of
-  a's family in the epoch between a and b, or a stall), with the error and ``tau_max``, the
-  largest τ its last path reached: where a's family turns back, that fraction of the way to b.
+  a's family in the epoch between a and b, or a stall), with the error, its ``reason`` and
+  ``tau_max``, the largest τ its last path reached: where a's family turns back (the arclength
+  path ran back below τ = −1), that fraction of the way to b.
 
 A date b that the scan itself started from a (``start_from``) is linked to a by construction: its
 solve *is* that link, so no link job runs for (a, b) (status ``start``).
@@ -42,9 +43,11 @@ from . import multirev, perturbed as P
 # samples per revolution of the one propagation that reads the continued extremal's m_f and Δt
 SAMPLES_PER_REV = 20
 
+# the reason of a continuation that ran back past its floor (spaceopt.indirect.continuation): a fold
+TURNED_BACK = "turned back"
 STATUSES = ("same", "other", "not certified", "failed", "start")
 COLUMNS = ["from_date", "to_date", "status", "m_f_kg", "tof_days", "scan_m_f_kg", "scan_tof_days",
-           "dm_f_g", "tau_max", "jacobian_evaluations", "wall_time_s"]
+           "dm_f_g", "tau_max", "reason", "jacobian_evaluations", "wall_time_s"]
 
 
 def link_settings(pc: dict) -> dict | None:
@@ -88,7 +91,7 @@ def continue_to(start, tr_to, scan: dict, pc: dict, case: str, label: str, setti
         moved = P.warm_start(start, tr_to, label, options=options)
     except ConvergenceError as exc:
         d = exc.diagnosis or {}
-        return {**rec, "status": "failed", "error": str(exc), "tau_max": d.get("tau_max"),
+        return {**rec, "status": "failed", "error": str(exc), "reason": d.get("reason"), "tau_max": d.get("tau_max"),
                 "jacobian_evaluations": d.get("jacobian_evaluations"), "wall_time_s": d.get("wall_time_s")}
     sol, end_game = P.maximise_in_tof(moved, pc, case, label)
     ours = multirev.scalars(sol, multirev.sample(sol, SAMPLES_PER_REV))
@@ -143,10 +146,12 @@ def families_sentence(dates: list[str], rows: list[dict], mass_tol_kg: float) ->
     text = (f"Continued in the departure epoch from each date to its neighbours ({len(rows)} links: "
             + ", ".join(f"{n} {s}" for s, n in counts.items() if n) + "), the scan's extremals form "
             f"{len(segs)} famil{'y' if len(segs) == 1 else 'ies'}: {span}.")
-    folds = [r for r in rows if r["status"] == "failed" and isinstance(r.get("tau_max"), float) and r["tau_max"] < 1.0]
-    if folds:
-        text += (" Continued in the epoch, the family of " + ", ".join(
-            f"{r['from_date']} turns back {r['tau_max']:.3f} of the way to {r['to_date']}" for r in folds) + ".")
+    failed = [r for r in rows if r["status"] == "failed" and isinstance(r.get("tau_max"), float)]
+    if failed:
+        text += " Continued in the epoch, " + ", ".join(
+            (f"the family of {r['from_date']} turns back" if TURNED_BACK in str(r.get("reason"))
+             else f"the path from {r['from_date']} stops") + f" {r['tau_max']:.3f} of the way to {r['to_date']}"
+            for r in failed) + "."
     heavier = heavier_elsewhere(rows, mass_tol_kg)
     if heavier:
         text += (" At " + ", ".join(f"{r['to_date']} (from {r['from_date']}: {r['m_f_kg'] - r['scan_m_f_kg']:+.4f} kg, "
