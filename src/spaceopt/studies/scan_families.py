@@ -18,8 +18,8 @@ one the scan found at date b. The continuation is :func:`spaceopt.studies.pertur
 * ``other``: it certifies another local maximum of m_f in t_f at b; its m_f beside the scan's
   says whether the scan's extremal at b is the heavier of the two;
 * ``not certified``: the end game certifies no maximum from the continued point;
-* ``failed``: the continuation does not reach b within ``max_steps`` steps per path (a fold of
-  a's family in the epoch between a and b, or a stall), with the error, its ``reason`` and
+* ``failed``: the continuation does not reach b (a fold of a's family in the epoch between a
+  and b, or a stall), with the error, its ``reason`` and
   ``tau_max``, the largest τ its last path reached: where a's family turns back (the arclength
   path ran back below τ = −1), that fraction of the way to b.
 
@@ -32,7 +32,9 @@ is heavier than the scan's extremal: the scan's curve is not the upper envelope 
 it met there.
 
 Config ``perturbed.e6.links`` (null: off): ``directions`` (``forward``: (a, a + 1 day) only;
-``both``: also backwards), ``max_steps``, ``mass_tol_kg``, ``tof_tol_days``.
+``both``: also backwards), ``max_steps`` (steps, accepted and rejected, of the τ path, which is
+tried first; where it runs out the path goes on in arclength with the arclength follower's own
+limits, 400 steps and the τ floor −1, as in every warm start), ``mass_tol_kg``, ``tof_tol_days``.
 """
 from __future__ import annotations
 
