@@ -154,9 +154,9 @@ def date_scan(rows: list, path, title="E6: departure date scan, May 2021", skipp
             ax.axhline(unp[0][k], color="tab:blue", ls="--", label="unperturbed")
         _mark_skipped(ax, skipped)
         ax.set_xlabel("departure day, May 2021 (12:00 UTC)"); ax.set_ylabel(lab)
-    axes[0].legend(fontsize=8)
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="lower center", ncol=4, fontsize=8, frameon=False)
     fig.suptitle(title)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.07, 1, 1))       # the legend below the panels, clear of the points
     save_figure(fig, path)
     plt.close(fig)
 
