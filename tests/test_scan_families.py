@@ -51,7 +51,7 @@ def test_families_are_runs_of_dates_joined_by_a_same_or_start_link_either_way():
     assert [(r["from_date"], r["to_date"]) for r in heavier] == [("d2", "d3")]
     text = F.families_sentence(dates, rows, 1e-5)
     assert "form 3 families: d1 to d2; d3 to d4; d5" in text
-    assert "1 same, 2 other, 1 not certified, 2 failed, 1 start" in text
+    assert "(6 links: 1 same, 2 other, 1 not certified, 2 failed; 1 pair linked by construction" in text
     assert "At d3 (from d2: +0.0020 kg, +2.000 d) a neighbour's family is heavier" in text
     assert "the family of d3 turns back 0.610 of the way to d2, the path from d5 stops 0.250 of the way to d4." in text
     lighter = [r for r in rows if r["to_date"] != "d3"]

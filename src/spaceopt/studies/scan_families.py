@@ -145,9 +145,12 @@ def families_sentence(dates: list[str], rows: list[dict], mass_tol_kg: float) ->
     segs = segments(dates, rows)
     span = "; ".join(s[0] if len(s) == 1 else f"{s[0]} to {s[-1]}" for s in segs)
     counts = {s: sum(r["status"] == s for r in rows) for s in STATUSES}
-    text = (f"Continued in the departure epoch from each date to its neighbours ({len(rows)} links: "
-            + ", ".join(f"{n} {s}" for s, n in counts.items() if n) + "), the scan's extremals form "
-            f"{len(segs)} famil{'y' if len(segs) == 1 else 'ies'}: {span}.")
+    starts = counts.pop("start")
+    text = (f"Continued in the departure epoch from each date to its neighbours ({sum(counts.values())} links: "
+            + ", ".join(f"{n} {s}" for s, n in counts.items() if n)
+            + (f"; {starts} pair{'s' if starts > 1 else ''} linked by construction, one date's solve started from the other"
+               if starts else "")
+            + f"), the scan's extremals form {len(segs)} famil{'y' if len(segs) == 1 else 'ies'}: {span}.")
     failed = [r for r in rows if r["status"] == "failed" and isinstance(r.get("tau_max"), float)]
     if failed:
         text += " Continued in the epoch, " + ", ".join(
