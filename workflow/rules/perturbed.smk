@@ -123,6 +123,7 @@ rule perturbed_e6_date:
 # scan's extremal there (spaceopt.studies.scan_families; perturbed.e6.links, null: off)
 E6_LINKS = link_settings(PT) if "e6" in PT["run"] else None
 E6_LINK_PAIRS = link_pairs(PT) if E6_LINKS else []
+E6_FAMILIES = [f"{PTDIR}/e6_families.csv"] if E6_LINKS else []     # the table, where links are on
 
 
 def pt_e6_link_files():
@@ -147,7 +148,7 @@ rule perturbed_e6_families:
     input: links=pt_e6_link_files(), dates=[f"{PTDIR}/e6/{d}.json" for d in E6_DATES],
            _src=lib_sources("studies/scan_families")
     output: f"{PTDIR}/e6_families.csv"
-    params: dates=E6_DATES, starts=start_pairs(PT), settings=E6_LINKS
+    params: dates=E6_DATES, starts=start_pairs(PT)
     log: f"{PTDIR}/logs/e6_families.log"
     script: "../scripts/perturbed_e6_families.py"
 
@@ -276,7 +277,7 @@ def pt_figure_names():
 
 rule perturbed_figures:
     input: **pt_stage_jsons(), _src=lib_sources("studies/perturbed_figures", "studies/scan_families", "report/figures"),
-           families=[f"{PTDIR}/e6_families.csv"] if E6_LINKS else []
+           _families=E6_FAMILIES
     output: [f"{PTDIR}/figures/{f}.{ext}" for f in pt_figure_names() for ext in ("pdf", "png")]
     params: run=PT["run"], cases={c: {"models": PT["cases"][c]["models"]} for c in PT["cases"]},
             e6=E6, e8_n=E8["run_n_rev"], style=PT.get("figures", {})
@@ -290,9 +291,9 @@ rule perturbed_paper_section:
            verify=f"{PTDIR}/verification.csv", tof_maximum=f"{PTDIR}/tof_maximum.csv",
            budget=f"{PTDIR}/e9_budget.json",
            figures=[f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()],
-           families=[f"{PTDIR}/e6_families.csv"] if E6_LINKS else [],
+           families=E6_FAMILIES,
            **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},
-           _src=lib_sources("studies/perturbed_report")
+           _src=lib_sources("studies/perturbed_report", "studies/scan_families")
     output: f"{PTDIR}/paper_section.tex"
     params: run=PT["run"], results=RESULTS, e8_count_start=e8_count_start(PT), e8_smoothing=e8_smoothing(PT),
             e6_skipped=E6.get("skip_dates") or [], e8_skipped=e8_skipped(PT) if "e8" in PT["run"] else [],
@@ -303,4 +304,4 @@ rule perturbed_paper_section:
 
 ALL_TARGETS += [f"{PTDIR}/{t}.csv" for t in PT_TABLES] + [
     f"{PTDIR}/reproduction.csv", f"{PTDIR}/paper_section.tex", f"{PTDIR}/e9_budget.json"] + [
-    f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()] + ([f"{PTDIR}/e6_families.csv"] if E6_LINKS else [])
+    f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()] + E6_FAMILIES

@@ -13,7 +13,7 @@ from spaceopt.studies import perturbed_report as R  # noqa: E402
 
 def main(sm):
     out = Path(sm.output[0]).parent
-    stages = {k: v for k, v in sm.input.items() if not k.startswith("_") and k != "families"}
+    stages = {k: v for k, v in sm.input.items() if not k.startswith("_")}
     run, cases = sm.params.run, sm.params.cases
     npz = lambda key: artifacts.read_npz(stages[key])  # noqa: E731
     if "e5" in run:
@@ -26,7 +26,7 @@ def main(sm):
         tabs = R.tables(payloads, ["e6"], cases, sm.params.e6, [])
         rows = R.e6_with_unperturbed(tabs["e6_date_scan"], R.summary_or_none(payloads, "e5_unperturbed"))
         skipped = sm.params.e6.get("skip_dates") or []
-        families = read_csv(sm.input.families[0]) if sm.input.families else []
+        families = read_csv(sm.input._families[0]) if sm.input._families else []
         F.date_scan(rows, out / "fig_4_2_1_4", skipped=skipped, families=families)
         keys = sorted(k for k in payloads if k.startswith("e6_"))
         F.costates_vs_date([k[3:] for k in keys], [payloads[k]["scalars"]["costates"] for k in keys],
