@@ -5,7 +5,8 @@ Three parts, all written to ``results/benchmarks/perturbed.json`` (parts not rer
 1. ``measured``: wall times read from the solve artifacts that exist (provenance wall_time_s of
    results/perturbed/**/<stage>.json): each E5/E7/E9 chain, every E6 date and the scan total,
    every E8 solve, and the DAG's whole route to each perturbed E8 solve (``e8_route_s``); the
-   E6 family links (``e6_links``: count, summed wall time and Jacobians).
+   E6 family links (``e6_links``: count, summed wall time and Jacobians) and the steps of the
+   family walks (``e6_walks``, the same).
 2. ``propagation``: the cost of one shooting evaluation (trajectory + sensitivity columns) of the
    E8 problem, unperturbed, J2 and perturbed (4×4 + Moon + Sun), over ``--revs`` revolutions at a
    fixed guess, after compilation, per revolution. With ``--baseline REV`` the same measurement
@@ -84,6 +85,10 @@ def measured(results: Path) -> dict:
     if links:   # the E6 family links (studies.scan_families): beside the scan, not part of it
         out["e6_links"] = {"links": len(links), "total_s": sum(r["wall_time_s"] for r in links),
                            "jacobian_evaluations": sum(r.get("jacobian_evaluations") or 0 for r in links)}
+    steps = [s for p in sorted(base.glob("e6_walks/*.json")) for s in artifacts.read_json(p)["walk"]["steps"]]
+    if steps:   # the E6 family walks (studies.scan_walks): each step a link
+        out["e6_walks"] = {"steps": len(steps), "total_s": sum(s.get("wall_time_s") or 0.0 for s in steps),
+                           "jacobian_evaluations": sum(s.get("jacobian_evaluations") or 0 for s in steps)}
     return out
 
 

@@ -1060,6 +1060,29 @@ def test_e6_figure_draws_one_line_per_family_and_the_other_families_reached_at_a
     assert (xo, yo, lso) == ([3], [958.5], "None")
 
 
+def test_e6_figure_draws_each_family_followed_on_from_its_links_point_and_the_envelope_under_it(
+        tmp_path, monkeypatch):
+    """Fig. 4.2.1.4 with the walks (spaceopt.studies.scan_walks): a dashed line from the link's
+    open circle through the walk's steps that reached their date, the envelope as a broad band."""
+    from spaceopt.studies import perturbed_figures as F
+    drawn = []
+    monkeypatch.setattr(F, "save_figure", lambda fig, path: drawn.append(
+        [(list(ln.get_xdata()), list(ln.get_ydata()), ln.get_linestyle(), ln.get_linewidth()) for ln in fig.axes[0].lines]))
+    dates = ["2021-05-01", "2021-05-02", "2021-05-03"]
+    rows = [{"date": d, "model": "g44_moon_sun", "m_f_kg": 956.0, "tof_days": 60.0} for d in dates]
+    families = [{"from_date": "2021-05-01", "to_date": "2021-05-02", "status": "other", "m_f_kg": 958.0, "tof_days": 61.0}]
+    step = lambda date, status, m: {"from_date": "2021-05-01", "link_to": "2021-05-02", "date": date,
+                                    "status": status, "m_f_kg": m, "tof_days": 62.0}
+    walks = [step("2021-05-03", "other", 957.5), step("2021-05-04", "failed", None)]
+    envelope = [{"date": d, "m_f_kg": m, "tof_days": 60.0} for d, m in zip(dates, (956.0, 958.0, 957.5))]
+    F.date_scan(rows, tmp_path / "scan", families=families, walks=walks, envelope=envelope)
+    lines = drawn[0]
+    band = [ln for ln in lines if ln[3] == 6]
+    assert len(band) == 1 and band[0][:2] == ([1, 2, 3], [956.0, 958.0, 957.5])
+    dashed = [ln for ln in lines if ln[2] == "--"]
+    assert len(dashed) == 1 and dashed[0][:2] == ([2, 3], [958.0, 957.5])
+
+
 def test_the_verification_sentence_states_the_worst_errors_and_the_perturbation_scale():
     from spaceopt.studies.verify import verification_sentence
     row = {"final_a_error_km": -0.2, "final_e_error": 1e-6, "final_i_error_deg": 3e-6, "final_mass_error_kg": 1e-5,

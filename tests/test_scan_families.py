@@ -89,8 +89,9 @@ def two_epochs():
 def test_a_link_continued_in_the_epoch_lands_on_the_extremal_solved_at_the_new_date(two_epochs):
     pc, sols = two_epochs
     (a, (sol_a, _)), (b, (sol_b, scan_b)) = sols.items()
-    rec = F.continue_to(sol_a, sol_b.transfer, scan_b, pc, "e1", "e1 link", SETTINGS)
+    rec, sol = F.continue_to(sol_a, sol_b.transfer, scan_b, pc, "e1", "e1 link", SETTINGS)
     assert rec["status"] == "same", rec
+    assert list(sol.z) == rec["z"] and sol.transfer.epoch_utc == b and rec["wall_time_s"] > 0
     assert abs(rec["dm_f_g"]) < 1e-2 and rec["tof_maximum"]["certified"] and rec["jacobian_evaluations"] > 0
     assert not F.same_extremal(rec["m_f_kg"], rec["tof_days"], scan_b["m_f_kg"] - 0.05, scan_b["tof_days"], SETTINGS)
 
@@ -104,7 +105,7 @@ def test_a_continuation_that_does_not_reach_the_new_date_is_a_result_not_an_erro
         raise ConvergenceError("e6 link: the arclength path turned back at tau 0.61",
                                {"jacobian_evaluations": 17, "wall_time_s": 42.0, "tau_max": 0.61})
     monkeypatch.setattr(F.P, "warm_start", fold)
-    rec = F.continue_to(None, None, {"m_f_kg": 960.0, "tof_days": 60.0}, {}, "e5", "link", SETTINGS)
+    rec, sol = F.continue_to(None, None, {"m_f_kg": 960.0, "tof_days": 60.0}, {}, "e5", "link", SETTINGS)
     assert rec["status"] == "failed" and "tau 0.61" in rec["error"]
     assert rec["jacobian_evaluations"] == 17 and rec["scan_m_f_kg"] == 960.0 and "m_f_kg" not in rec
-    assert rec["tau_max"] == 0.61
+    assert rec["tau_max"] == 0.61 and sol is None

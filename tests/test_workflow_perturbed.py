@@ -4,7 +4,7 @@ import re
 from pathlib import Path
 
 import yaml
-from spaceopt.studies import perturbed as P, scan_families as F
+from spaceopt.studies import perturbed as P, scan_families as F, scan_walks as W
 from workflow_skeleton import planned_rules, repo_snakemake as smk
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -28,9 +28,10 @@ def test_full_reproduction_plans_e6_dates_from_the_unperturbed_solve_and_e8_coun
     neighbour; E8: each revolution count of the first model from the zero guess (count_start:
     chain) or from the next smaller one (previous), every later model from the previous model
     at the same count. E6 families: a link job per ordered pair of neighbouring dates, from the
-    first date's solve to the second's, but none where the scan started the one from the other."""
+    first date's solve to the second's, but none where the scan started the one from the other; a
+    walk job per link, with the scan's solves at its date and the dates past it."""
     rc, out = smk("-n", "--forceall", "--cores", "2", "results/perturbed/e6_date_scan.csv",
-                  "results/perturbed/e8.csv", "results/perturbed/e6_families.csv")
+                  "results/perturbed/e8.csv", "results/perturbed/e6_families.csv", "results/perturbed/e6_envelope.csv")
     assert rc == 0, out[-2000:]
     jobs = planned_rules(out)
     assert {"e6", "e8"} <= set(PT["run"])
@@ -53,6 +54,14 @@ def test_full_reproduction_plans_e6_dates_from_the_unperturbed_solve_and_e8_coun
         a, b = Path(output).stem.split("_to_")
         assert inputs[:2] == [f"results/perturbed/e6/{a}.json", f"results/perturbed/e6/{b}.json"]
         assert start_from.get(b) != a                # b's solve is that link
+    walks = planned_inputs(out, "perturbed_e6_walk")      # one per link: it ends at once unless the link is 'other'
+    assert len(walks) == len(links)
+    for output, inputs in walks.items():
+        a, b = Path(output).stem.split("_to_")
+        ahead = W.walk_dates(PT, a, b)
+        assert inputs[:2 + len(ahead)] == [f"results/perturbed/e6_links/{a}_to_{b}.json"] + [
+            f"results/perturbed/e6/{d}.json" for d in [b] + ahead]
+        assert all((d > b) == (b > a) for d in ahead)     # on past b, away from a
     e8 = planned_inputs(out, "perturbed_e8")
     ns = sorted(PT["e8"]["run_n_rev"])
     models = PT["cases"]["e8"]["models"]

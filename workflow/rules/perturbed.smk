@@ -3,6 +3,8 @@
 #   results/perturbed/e6/<date>.{json,npz,rrd}          E6 departure scan (each date from the unperturbed OT)
 #   results/perturbed/e6_links/<from>_to_<to>.json      E6 date a's extremal continued to its neighbour b
 #   results/perturbed/e6_families.csv                   which neighbouring dates lie on one family
+#   results/perturbed/e6_walks/<from>_to_<to>.json      a link's other extremal followed on past its date
+#   results/perturbed/e6_{walks,envelope}.csv           the walks' steps; the heaviest extremal found per date
 #   results/perturbed/e8/<model>_n<n>.{json,npz,rrd}    E8 (n to n; perturbed from unperturbed at n)
 #   results/perturbed/e9_budget.json                    ΔΩ budget check (spec §6)
 #   results/perturbed/{e5,e6_date_scan,e7,e8,e9}.csv, reproduction.csv, paper_section.tex, figures/
@@ -10,6 +12,7 @@
 from spaceopt.studies.perturbed import (e8_count_start, e8_model_steps, e8_runs, e8_skipped, e8_smoothing,
                                         scan_run_dates, scan_source)
 from spaceopt.studies.scan_families import link_pairs, link_settings, start_pairs
+from spaceopt.studies.scan_walks import walk_dates, walk_settings
 
 check_section("perturbed", physical=lambda pc: (scan_run_dates(pc), e8_runs(pc)))
 PT = config["perturbed"]
@@ -153,6 +156,45 @@ rule perturbed_e6_families:
     script: "../scripts/perturbed_e6_families.py"
 
 
+# E6 walks: a link's other extremal followed on, date by date, past its date; the envelope of
+# every extremal found (spaceopt.studies.scan_walks; perturbed.e6.walks, null: off)
+E6_WALKS = walk_settings(PT) if E6_LINKS else None
+E6_ENVELOPE = [f"{PTDIR}/e6_envelope.csv"] if E6_WALKS else []
+E6_WALKS_CSV = [f"{PTDIR}/e6_walks.csv"] if E6_WALKS else []
+
+
+def pt_e6_walk_dates(w):
+    """The link's date b, then the dates the walk may reach."""
+    return [w.b] + walk_dates(PT, w.a, w.b)
+
+
+def pt_e6_walk_files():
+    return [f"{PTDIR}/e6_walks/{a}_to_{b}.json" for a, b in E6_LINK_PAIRS] if E6_WALKS else []
+
+
+rule perturbed_e6_walk:
+    input: link=f"{PTDIR}/e6_links/{{a}}_to_{{b}}.json",
+           scan=lambda w: [f"{PTDIR}/e6/{d}.json" for d in pt_e6_walk_dates(w)], src=PT_SRC,
+           _src=lib_sources("studies/scan_families", "studies/scan_walks"), eph=pt_ephemeris(E6["case"], E6["model"])
+    output: f"{PTDIR}/e6_walks/{{a}}_to_{{b}}.json"
+    wildcard_constraints: a=r"\d{4}-\d{2}-\d{2}", b=r"\d{4}-\d{2}-\d{2}"
+    params: cfg=lambda w: {**pt_config_for(E6["case"], E6["model"]), "links": E6_LINKS, "walks": E6_WALKS},
+            case=E6["case"], dates=pt_e6_walk_dates
+    log: f"{PTDIR}/logs/e6_walk_{{a}}_to_{{b}}.log"
+    benchmark: f"{PTDIR}/benchmarks/e6_walk_{{a}}_to_{{b}}.tsv"
+    resources: mem_mb=4000, runtime=360
+    script: "../scripts/perturbed_e6_walk.py"
+
+
+rule perturbed_e6_envelope:
+    input: walks=pt_e6_walk_files(), families=E6_FAMILIES, dates=[f"{PTDIR}/e6/{d}.json" for d in E6_DATES],
+           _src=lib_sources("studies/scan_walks")
+    output: steps=f"{PTDIR}/e6_walks.csv", envelope=f"{PTDIR}/e6_envelope.csv"
+    params: dates=E6_DATES, links=E6_LINKS
+    log: f"{PTDIR}/logs/e6_envelope.log"
+    script: "../scripts/perturbed_e6_envelope.py"
+
+
 # ---------------------------------------------------------------- E8 revolution counts
 
 E8 = PT["e8"]
@@ -277,7 +319,7 @@ def pt_figure_names():
 
 rule perturbed_figures:
     input: **pt_stage_jsons(), _src=lib_sources("studies/perturbed_figures", "studies/scan_families", "report/figures"),
-           _families=E6_FAMILIES
+           _families=E6_FAMILIES, _walks=E6_WALKS_CSV, _envelope=E6_ENVELOPE
     output: [f"{PTDIR}/figures/{f}.{ext}" for f in pt_figure_names() for ext in ("pdf", "png")]
     params: run=PT["run"], cases={c: {"models": PT["cases"][c]["models"]} for c in PT["cases"]},
             e6=E6, e8_n=E8["run_n_rev"], style=PT.get("figures", {})
@@ -291,9 +333,9 @@ rule perturbed_paper_section:
            verify=f"{PTDIR}/verification.csv", tof_maximum=f"{PTDIR}/tof_maximum.csv",
            budget=f"{PTDIR}/e9_budget.json",
            figures=[f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()],
-           families=E6_FAMILIES,
+           families=E6_FAMILIES, walks=E6_WALKS_CSV, envelope=E6_ENVELOPE,
            **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},
-           _src=lib_sources("studies/perturbed_report", "studies/scan_families")
+           _src=lib_sources("studies/perturbed_report", "studies/scan_families", "studies/scan_walks")
     output: f"{PTDIR}/paper_section.tex"
     params: run=PT["run"], results=RESULTS, e8_count_start=e8_count_start(PT), e8_smoothing=e8_smoothing(PT),
             e6_skipped=E6.get("skip_dates") or [], e8_skipped=e8_skipped(PT) if "e8" in PT["run"] else [],
@@ -304,4 +346,4 @@ rule perturbed_paper_section:
 
 ALL_TARGETS += [f"{PTDIR}/{t}.csv" for t in PT_TABLES] + [
     f"{PTDIR}/reproduction.csv", f"{PTDIR}/paper_section.tex", f"{PTDIR}/e9_budget.json"] + [
-    f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()] + E6_FAMILIES
+    f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()] + E6_FAMILIES + E6_ENVELOPE

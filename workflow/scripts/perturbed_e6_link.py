@@ -18,7 +18,7 @@ def main(sm):
     tr_to = P.transfer_from_config(cfg, case, model, ephemeris=eph, epoch_utc=sm.params.epoch)
     a, b = sm.wildcards.a, sm.wildcards.b
     scan = artifacts.read_json(sm.input.scan)["scalars"]
-    rec = F.continue_to(P.load(sm.input.start), tr_to, scan, cfg, case, f"e6 link {a} -> {b}", cfg["links"])
+    rec, _ = F.continue_to(P.load(sm.input.start), tr_to, scan, cfg, case, f"e6 link {a} -> {b}", cfg["links"])
     print(f"[e6 link {a} -> {b}] {rec['status']}" + (
         f": m_f {rec['m_f_kg']:.6f} kg, {rec['tof_days']:.5f} d against the scan's "
         f"{rec['scan_m_f_kg']:.6f} kg, {rec['scan_tof_days']:.5f} d" if "m_f_kg" in rec else f": {rec.get('error')}"),

@@ -27,7 +27,9 @@ def main(sm):
         rows = R.e6_with_unperturbed(tabs["e6_date_scan"], R.summary_or_none(payloads, "e5_unperturbed"))
         skipped = sm.params.e6.get("skip_dates") or []
         families = read_csv(sm.input._families[0]) if sm.input._families else []
-        F.date_scan(rows, out / "fig_4_2_1_4", skipped=skipped, families=families)
+        walks = read_csv(sm.input._walks[0]) if sm.input._walks else []
+        envelope = read_csv(sm.input._envelope[0]) if sm.input._envelope else []
+        F.date_scan(rows, out / "fig_4_2_1_4", skipped=skipped, families=families, walks=walks, envelope=envelope)
         keys = sorted(k for k in payloads if k.startswith("e6_"))
         F.costates_vs_date([k[3:] for k in keys], [payloads[k]["scalars"]["costates"] for k in keys],
                            out / "fig_4_2_1_5", skipped=skipped)

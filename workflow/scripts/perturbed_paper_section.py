@@ -7,7 +7,7 @@ from _step import run_step  # noqa: E402
 
 from spaceopt import artifacts  # noqa: E402
 from spaceopt.report.tables import read_csv as _read  # noqa: E402
-from spaceopt.studies import perturbed_report as R, scan_families as F  # noqa: E402
+from spaceopt.studies import perturbed_report as R, scan_families as F, scan_walks as W  # noqa: E402
 
 
 def main(sm):
@@ -18,6 +18,9 @@ def main(sm):
     e6sum = R.e6_summary(e6, unp, sm.params.e6_skipped)
     families = (F.families_sentence(sm.params.e6_dates, _read(sm.input.families[0]), sm.params.e6_links["mass_tol_kg"])
                 if sm.input.families else "")
+    if sm.input.envelope:
+        families += " " + W.envelope_sentence(_read(sm.input.walks[0]), _read(sm.input.envelope[0]),
+                                              sm.params.e6_links["mass_tol_kg"])
     Path(sm.output[0]).write_text(R.paper_section(rows, {}, budget, e6sum, list(sm.input.figures),
                                                   e8_count_start=sm.params.e8_count_start,
                                                   smoothing=sm.params.e8_smoothing,

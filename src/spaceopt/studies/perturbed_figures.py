@@ -129,12 +129,16 @@ def _mark_skipped(ax, skipped: list):
         ax.axvline(_day(d), color="0.6", ls=":", lw=1, label="left out (skip_dates)" if k == 0 else None)
 
 
-def date_scan(rows: list, path, title="E6: departure date scan, May 2021", skipped=(), families=()):
+def date_scan(rows: list, path, title="E6: departure date scan, May 2021", skipped=(), families=(), walks=(),
+              envelope=()):
     """Fig. 4.2.1.4: m_f and Δt against the departure day, the unperturbed line dashed; the
     dates of ``skipped`` (left out of the run) break the curve and are marked. ``families``: the
     rows of ``e6_families.csv`` (:mod:`spaceopt.studies.scan_families`); the curve is then drawn
     one family at a time (no line across a jump), and the other extremals that a neighbour's
-    family reaches at a date are drawn as open circles."""
+    family reaches at a date are drawn as open circles. ``walks``: the rows of ``e6_walks.csv``
+    (:mod:`spaceopt.studies.scan_walks`), each such family followed on, drawn dashed from its
+    link's point; ``envelope``: the rows of ``e6_envelope.csv``, the heaviest extremal found at
+    each date, a broad grey band under the curves."""
     pert = sorted((r for r in rows if r["model"] != "unperturbed"), key=lambda r: r["date"])
     unp = [r for r in rows if r["model"] == "unperturbed"]
     by_date = {r["date"]: r for r in pert}
@@ -147,6 +151,12 @@ def date_scan(rows: list, path, title="E6: departure date scan, May 2021", skipp
             ax.plot(*_with_gaps([_day(d) for d in seg], [by_date[d][k] for d in seg], inside), "o-",
                     color="tab:red", ms=3, label=("perturbed" + (", one line per family" if families else ""))
                     if i == 0 else None)
+        if envelope:
+            ax.plot([_day(r["date"]) for r in envelope], [r[k] for r in envelope], "-", color="0.6", lw=6,
+                    alpha=0.4, zorder=0, label="heaviest extremal found")
+        for i, line in enumerate(_walk_lines(others, walks)):
+            ax.plot([_day(r["date"]) for r in line], [r[k] for r in line], "--", color="tab:green", lw=1,
+                    label="a family followed on" if i == 0 else None)
         if others:
             ax.plot([_day(f["to_date"]) for f in others], [f[k] for f in others], "o", mfc="none",
                     color="tab:green", ms=6, label="a neighbour's family continued to the date")
@@ -159,6 +169,20 @@ def date_scan(rows: list, path, title="E6: departure date scan, May 2021", skipp
     fig.tight_layout(rect=(0, 0.07, 1, 1))       # the legend below the panels, clear of the points
     save_figure(fig, path)
     plt.close(fig)
+
+
+def _walk_lines(others: list, walks: list) -> list[list[dict]]:
+    """One line per walk that took a step: its link's point (``others``, rows of
+    ``e6_families.csv``), then each step that reached its date (an ``other`` extremal, or the
+    scan's where the walk ends on it), as {date, m_f_kg, tof_days}."""
+    lines = []
+    for f in others:
+        steps = [w for w in walks if (w["from_date"], w["link_to"]) == (f["from_date"], f["to_date"])
+                 and w["status"] in ("other", "same")]
+        if steps:
+            lines.append([{"date": f["to_date"], "m_f_kg": f["m_f_kg"], "tof_days": f["tof_days"]}]
+                         + [{"date": w["date"], "m_f_kg": w["m_f_kg"], "tof_days": w["tof_days"]} for w in steps])
+    return lines
 
 
 def costates_vs_date(dates: list, costates: list, path, title="E6: initial costates vs departure date",

@@ -430,8 +430,9 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
     (:func:`spaceopt.studies.verify.verification_rows`); ``tof_rows``: the free-time end games
     (:func:`tof_maximum_rows`); ``e8_skipped``: the (model, n_rev) the run leaves out
     (``perturbed.e8.skip_n_rev``, :func:`spaceopt.studies.perturbed.e8_skipped`), named in the text;
-    ``e6_families``: the scan's families (:func:`spaceopt.studies.scan_families.families_sentence`,
-    plain text)."""
+    ``e6_families``: the scan's families and the envelope of the extremals found
+    (:func:`spaceopt.studies.scan_families.families_sentence`,
+    :func:`spaceopt.studies.scan_walks.envelope_sentence`; plain text)."""
     n_pass = sum(r["status"] == "pass" for r in rows)
     n_fail = sum(r["status"] == "fail" for r in rows)
     n_miss = sum(r["status"] == "missing" for r in rows)

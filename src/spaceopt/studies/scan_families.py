@@ -38,6 +38,8 @@ limits, 400 steps and the τ floor −1, as in every warm start), ``mass_tol_kg`
 """
 from __future__ import annotations
 
+import time
+
 from ..errors import ConvergenceError
 from ..indirect.continuation import ContinuationOptions
 from . import multirev, perturbed as P
@@ -83,10 +85,12 @@ def same_extremal(m_a: float, t_a: float, m_b: float, t_b: float, settings: dict
     return abs(m_a - m_b) <= settings["mass_tol_kg"] and abs(t_a - t_b) <= settings["tof_tol_days"]
 
 
-def continue_to(start, tr_to, scan: dict, pc: dict, case: str, label: str, settings: dict) -> dict:
-    """The link record from the solved extremal ``start`` (a :class:`~spaceopt.indirect.chain.Solution`
-    at date a) to date b: ``tr_to`` is b's problem, ``scan`` the scalars of the scan's solution
-    there (its artifact's ``m_f_kg`` and ``tof_days``)."""
+def continue_to(start, tr_to, scan: dict, pc: dict, case: str, label: str, settings: dict) -> tuple[dict, object]:
+    """(the link record, the continued solution at b or None where the continuation failed) from
+    the solved extremal ``start`` (a :class:`~spaceopt.indirect.chain.Solution` at date a) to date
+    b: ``tr_to`` is b's problem, ``scan`` the scalars of the scan's solution there (its
+    artifact's ``m_f_kg`` and ``tof_days``)."""
+    t0 = time.perf_counter()
     options = ContinuationOptions(max_steps=int(settings["max_steps"]), label=label)
     rec = {"scan_m_f_kg": scan["m_f_kg"], "scan_tof_days": scan["tof_days"]}
     try:
@@ -94,7 +98,7 @@ def continue_to(start, tr_to, scan: dict, pc: dict, case: str, label: str, setti
     except ConvergenceError as exc:
         d = exc.diagnosis or {}
         return {**rec, "status": "failed", "error": str(exc), "reason": d.get("reason"), "tau_max": d.get("tau_max"),
-                "jacobian_evaluations": d.get("jacobian_evaluations"), "wall_time_s": d.get("wall_time_s")}
+                "jacobian_evaluations": d.get("jacobian_evaluations"), "wall_time_s": d.get("wall_time_s")}, None
     sol, end_game = P.maximise_in_tof(moved, pc, case, label)
     ours = multirev.scalars(sol, multirev.sample(sol, SAMPLES_PER_REV))
     m, t = ours["m_f_kg"], ours["tof_days"]
@@ -103,8 +107,9 @@ def continue_to(start, tr_to, scan: dict, pc: dict, case: str, label: str, setti
               "same" if same_extremal(m, t, scan["m_f_kg"], scan["tof_days"], settings) else "other")
     jacobians = (moved.stats.get("jacobian_evaluations") or 0) + (end_game or {}).get("jacobian_evaluations", 0)
     return {**rec, "status": status, "m_f_kg": m, "tof_days": t, "dm_f_g": 1e3 * (m - scan["m_f_kg"]),
-            "jacobian_evaluations": jacobians, "warm_path": moved.stats.get("warm_path"),
-            "z": [float(v) for v in sol.z], "tof_maximum": end_game}
+            "jacobian_evaluations": jacobians, "wall_time_s": time.perf_counter() - t0,
+            "warm_path": moved.stats.get("warm_path"),
+            "z": [float(v) for v in sol.z], "tof_maximum": end_game}, sol
 
 
 def family_rows(links: dict, starts: list[tuple[str, str]], scan: dict) -> list[dict]:

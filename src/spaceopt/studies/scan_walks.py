@@ -1,0 +1,141 @@
+"""Walks along the E6 scan's extremal families, and the upper envelope of the extremals found.
+
+A link (:mod:`spaceopt.studies.scan_families`) continues date a's extremal one date, to b. Where
+it lands on another local maximum than the scan's at b (status ``other``), that family goes on
+past b: a *walk* continues it date by date in the same direction, each step a link
+(:func:`~spaceopt.studies.scan_families.continue_to`: the Newton homotopy in the departure epoch,
+then the free-time end game), until
+
+* it lands on the scan's extremal (``same``): the family joins the scan's curve, which is known
+  from there on;
+* the continuation fails, or the end game certifies no maximum (``failed``, ``not certified``);
+* the run dates end, or ``max_days`` dates past b were walked.
+
+So every family that a link met is followed across the month as far as it goes. At every date
+the scan's extremal, the links' and the walks' certified maxima are local maxima of m_f in t_f
+of one problem (the same transfer, model and epoch); :func:`envelope_rows` keeps the distinct
+ones (two are one where m_f and Δt agree within the link tolerances) and the heaviest, the
+upper envelope of the extremals found: which family a user who wants the most final mass at
+that date should fly, and by how much it beats the scan's own extremal.
+
+Config ``perturbed.e6.walks`` (null: off; needs ``links``): ``max_days``, the most dates a walk
+goes past its link's date. A walk job is planned for every link and ends at once where its
+link is not ``other``.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from . import perturbed as P
+from .scan_families import continue_to, same_extremal
+
+STEP_COLUMNS = ["from_date", "link_to", "date", "status", "m_f_kg", "tof_days", "scan_m_f_kg", "scan_tof_days",
+                "dm_f_g", "tau_max", "reason", "jacobian_evaluations", "wall_time_s"]
+ENVELOPE_COLUMNS = ["date", "scan_m_f_kg", "scan_tof_days", "extremals", "m_f_kg", "tof_days", "family_of", "gain_kg"]
+
+
+def walk_settings(pc: dict) -> dict | None:
+    """``perturbed.e6.walks`` (schema-checked), or None where it or the links are off."""
+    e6 = pc["e6"]
+    return (e6.get("walks") or None) if e6.get("links") else None
+
+
+def walk_dates(pc: dict, a: str, b: str) -> list[str]:
+    """The run dates past b, away from a, that the walk of link (a, b) may reach: at most
+    ``max_days`` of them, nearest first."""
+    dates = P.scan_run_dates(pc)
+    i = dates.index(b)
+    ahead = dates[i + 1:] if b > a else dates[:i][::-1]
+    return ahead[:int(walk_settings(pc)["max_days"])]
+
+
+def extremal_at(template, z):
+    """The solution ``template`` (the scan's at a date: its problem and unknowns' layout) with
+    the unknowns ``z`` of another extremal at that date."""
+    z = np.asarray(z, dtype=float)
+    if z.shape != np.shape(template.z):
+        raise ValueError(f"an extremal with {z.size} unknowns for a problem with {np.size(template.z)}")
+    return dataclasses.replace(template, z=z)
+
+
+def walk(sol, ahead: list[str], problems: dict, scans: dict, pc: dict, case: str, label: str, settings: dict,
+         done=(), record=None) -> list[dict]:
+    """The steps of a walk from ``sol``, the link's continued extremal at its date, through the
+    dates ``ahead`` (:func:`walk_dates`): each a link record with its ``date``.
+    ``problems[c]``: the scan's solution at date c (c's problem, the template of
+    :func:`extremal_at`); ``scans[c]``: its scalars. ``done``: the steps recorded before an
+    interruption (the walk goes on from the last one's unknowns); ``record(steps)`` is called
+    after every step (the job's resume file)."""
+    steps = list(done)
+    if steps:
+        if steps[-1]["status"] != "other":
+            return steps
+        sol = extremal_at(problems[steps[-1]["date"]], steps[-1]["z"])
+    for c in ahead[len(steps):]:
+        rec, sol = continue_to(sol, problems[c].transfer, scans[c], pc, case, f"{label} -> {c}", settings)
+        steps.append({"date": c, **rec})
+        if record is not None:
+            record(steps)
+        if rec["status"] != "other":
+            break
+    return steps
+
+
+def step_rows(walks: list[dict]) -> list[dict]:
+    """Rows of ``e6_walks.csv``: one per walk step (``walks``: the walk records, each with its
+    link's ``from_date`` and ``to_date`` and its ``steps``)."""
+    return [{"from_date": w["from_date"], "link_to": w["to_date"], **{k: s.get(k) for k in STEP_COLUMNS[2:]}}
+            for w in walks for s in w["steps"]]
+
+
+def envelope_rows(dates: list[str], scan: dict, links: list[dict], steps: list[dict], settings: dict) -> list[dict]:
+    """Rows of ``e6_envelope.csv``, one per date: the scan's extremal, the number of distinct
+    certified maxima found there (the scan's, and those of ``other`` links, ``links``: rows of
+    ``e6_families.csv``, and of walk steps, ``steps``: :func:`step_rows`), the heaviest, the scan
+    date whose family it is (``family_of``), and its gain over the scan's. ``scan``:
+    {date: (m_f_kg, tof_days)}."""
+    found = {d: [(*scan[d], d)] for d in dates}
+    met = [(r["to_date"], r) for r in links] + [(s["date"], s) for s in steps]
+    for date, r in met:
+        if r["status"] != "other" or date not in found:
+            continue
+        m, t = float(r["m_f_kg"]), float(r["tof_days"])
+        if not any(same_extremal(m, t, m2, t2, settings) for m2, t2, _ in found[date]):
+            found[date].append((m, t, r["from_date"]))
+    rows = []
+    for d in dates:
+        m, t, family = max(found[d], key=lambda e: e[0])
+        rows.append({"date": d, "scan_m_f_kg": scan[d][0], "scan_tof_days": scan[d][1], "extremals": len(found[d]),
+                     "m_f_kg": m, "tof_days": t, "family_of": family, "gain_kg": m - scan[d][0]})
+    return rows
+
+
+def envelope_sentence(steps: list[dict], envelope: list[dict], mass_tol_kg: float) -> str:
+    """The paper's account of the walks and the envelope (plain text; the caller escapes it)."""
+    walks = {(s["from_date"], s["link_to"]) for s in steps}
+    if not envelope:
+        return ""
+    text = (f"Each family that a link met was followed on, date by date, in the same direction "
+            f"({len(walks)} walk{'s' if len(walks) != 1 else ''}, {len(steps)} step{'s' if len(steps) != 1 else ''}: "
+            + ", ".join(f"{n} {s}" for s, n in _counts(steps)) + ")." if steps else
+            "No link met another extremal, so no family was followed on.")
+    above = [r for r in envelope if r["gain_kg"] > mass_tol_kg]
+    if not above:
+        return text + " At no date is an extremal found heavier than the scan's own."
+    best = max(above, key=lambda r: r["gain_kg"])
+    n_max = max(r["extremals"] for r in envelope)
+    return text + (
+        f" At {len(above)} of {len(envelope)} dates an extremal found is heavier than the scan's own "
+        f"(up to {best['gain_kg']:+.4f} kg at {best['date']}, on the family of {best['family_of']}); "
+        f"up to {n_max} distinct local maxima of m_f in the transfer time were found at one date. "
+        f"The upper envelope of them has m_f from {min(r['m_f_kg'] for r in envelope):.4f} to "
+        f"{max(r['m_f_kg'] for r in envelope):.4f} kg.")
+
+
+def _counts(steps: list[dict]) -> list[tuple[str, int]]:
+    out = {}
+    for s in steps:
+        out[s["status"]] = out.get(s["status"], 0) + 1
+    return list(out.items())

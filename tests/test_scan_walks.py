@@ -1,0 +1,111 @@
+"""The E6 family walks and the envelope (spaceopt.studies.scan_walks): which dates a walk may
+reach, when it stops, how it resumes, and the heaviest distinct extremal per date. The steps
+themselves are links (continue_to), tested for real in test_scan_families; here they are
+scripted so that every stopping rule is exercised."""
+import copy
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from spaceopt.indirect.chain import Solution
+from spaceopt.studies import scan_walks as W
+
+ROOT = Path(__file__).resolve().parents[1]
+PT = yaml.safe_load((ROOT / "config/studies/perturbed.yaml").read_text())["perturbed"]
+SETTINGS = {"directions": "both", "max_steps": 40, "mass_tol_kg": 1e-5, "tof_tol_days": 1e-3}
+
+
+def _pc(max_days=31, **e6):
+    pc = copy.deepcopy(PT)
+    pc["e6"].update({"first_date": "2021-05-01", "last_date": "2021-05-06", "start_from": {},
+                     "skip_dates": [], "links": SETTINGS, "walks": {"max_days": max_days}, **e6})
+    return pc
+
+
+def test_a_walk_goes_on_past_its_link_away_from_where_it_came_and_at_most_max_days():
+    pc = _pc()
+    assert W.walk_dates(pc, "2021-05-02", "2021-05-03") == ["2021-05-04", "2021-05-05", "2021-05-06"]
+    assert W.walk_dates(pc, "2021-05-04", "2021-05-03") == ["2021-05-02", "2021-05-01"]
+    assert W.walk_dates(pc, "2021-05-02", "2021-05-01") == []
+    assert W.walk_dates(_pc(max_days=2), "2021-05-01", "2021-05-02") == ["2021-05-03", "2021-05-04"]
+    skipped = _pc(skip_dates=["2021-05-04"])
+    assert W.walk_dates(skipped, "2021-05-02", "2021-05-03") == ["2021-05-05", "2021-05-06"]
+    assert W.walk_settings(_pc(links=None)) is None and W.walk_settings(_pc()) == {"max_days": 31}
+
+
+def _sol(date, z):
+    return Solution("ot", None, np.asarray(z, float), {}, date, {})
+
+
+class ScriptedLinks:
+    """continue_to with scripted outcomes per date; records from which extremal each step starts."""
+
+    def __init__(self, outcomes):
+        self.outcomes, self.starts = outcomes, []
+
+    def __call__(self, start, tr_to, scan, pc, case, label, settings):
+        self.starts.append((start.transfer, float(start.z[0])))
+        status, m = self.outcomes[tr_to]
+        rec = {"status": status, "m_f_kg": m, "tof_days": 60.0, "scan_m_f_kg": scan["m_f_kg"],
+               "scan_tof_days": scan["tof_days"], "z": [m, 0.0]}
+        return rec, (_sol(tr_to, rec["z"]) if status != "failed" else None)
+
+
+def test_a_walk_follows_an_other_family_until_it_meets_the_scans_extremal_and_resumes_after_its_last_step(
+        monkeypatch):
+    dates = ["d2", "d3", "d4", "d5"]
+    problems = {d: _sol(d, [0.0, 0.0]) for d in ["d1"] + dates}
+    scans = {d: {"m_f_kg": 950.0, "tof_days": 59.0} for d in dates}
+    links = ScriptedLinks({"d2": ("other", 961.0), "d3": ("other", 960.0), "d4": ("same", 950.0), "d5": ("other", 1.0)})
+    monkeypatch.setattr(W, "continue_to", links)
+    recorded = []
+    steps = W.walk(_sol("d1", [962.0, 0.0]), dates, problems, scans, {}, "e5", "walk", SETTINGS,
+                   record=lambda s: recorded.append(len(s)))
+    assert [(s["date"], s["status"]) for s in steps] == [("d2", "other"), ("d3", "other"), ("d4", "same")]
+    assert recorded == [1, 2, 3]
+    assert links.starts == [("d1", 962.0), ("d2", 961.0), ("d3", 960.0)]     # each step from the last extremal
+    # interrupted after two steps: the walk goes on from the second step's extremal at its date
+    links.starts.clear()
+    resumed = W.walk(None, dates, problems, scans, {}, "e5", "walk", SETTINGS, done=steps[:2])
+    assert resumed == steps and links.starts == [("d3", 960.0)]
+    # a finished walk is not walked again; a failed step ends it
+    assert W.walk(None, dates, problems, scans, {}, "e5", "walk", SETTINGS, done=steps) == steps
+    links.outcomes["d3"] = ("failed", None)
+    assert [s["status"] for s in W.walk(_sol("d1", [962.0, 0.0]), dates, problems, scans, {}, "e5", "walk",
+                                        SETTINGS)] == ["other", "failed"]
+    with pytest.raises(ValueError, match="3 unknowns for a problem with 2"):
+        W.extremal_at(problems["d2"], [1.0, 2.0, 3.0])
+
+
+def _step(a, b, date, status, m, t=60.0):
+    return {"from_date": a, "link_to": b, "date": date, "status": status, "m_f_kg": m, "tof_days": t}
+
+
+def test_the_envelope_keeps_the_distinct_extremals_of_a_date_and_the_heaviest():
+    dates = ["d1", "d2", "d3", "d4"]
+    scan = {"d1": (960.0, 60.0), "d2": (957.0, 65.0), "d3": (956.0, 59.0), "d4": (958.0, 55.0)}
+    links = [{"from_date": "d1", "to_date": "d2", "status": "other", "m_f_kg": 959.5, "tof_days": 61.0},
+             {"from_date": "d2", "to_date": "d1", "status": "same", "m_f_kg": 960.0, "tof_days": 60.0},
+             {"from_date": "d4", "to_date": "d3", "status": "other", "m_f_kg": 955.0, "tof_days": 57.0}]
+    steps = [_step("d1", "d2", "d3", "other", 958.2, 62.0),
+             _step("d1", "d2", "d4", "same", 958.0, 55.0),
+             _step("d4", "d3", "d2", "other", 957.0 + 5e-6, 65.0002),         # the scan's extremal again
+             _step("d4", "d3", "d1", "failed", None, None)]
+    env = {r["date"]: r for r in W.envelope_rows(dates, scan, links, steps, SETTINGS)}
+    assert [env[d]["extremals"] for d in dates] == [1, 2, 3, 1]
+    assert env["d2"]["family_of"] == "d1" and env["d2"]["m_f_kg"] == 959.5 and env["d2"]["gain_kg"] == pytest.approx(2.5)
+    assert env["d3"]["family_of"] == "d1" and env["d3"]["tof_days"] == 62.0
+    assert env["d1"]["family_of"] == "d1" and env["d1"]["gain_kg"] == 0.0
+    rows = W.step_rows([{"from_date": "d1", "to_date": "d2", "steps": [{"date": "d3", "status": "other", "m_f_kg": 1.0}]},
+                        {"from_date": "d2", "to_date": "d1", "steps": []}])
+    assert rows == [{**{k: None for k in W.STEP_COLUMNS}, "from_date": "d1", "link_to": "d2", "date": "d3",
+                     "status": "other", "m_f_kg": 1.0}]
+    text = W.envelope_sentence(steps, list(env.values()), 1e-5)
+    assert "(2 walks, 4 steps: 2 other, 1 same, 1 failed)" in text
+    assert "At 2 of 4 dates an extremal found is heavier than the scan's own (up to +2.5000 kg at d2, on the family of d1)" in text
+    assert "up to 3 distinct local maxima" in text and "from 958.0000 to 960.0000 kg" in text
+    flat = W.envelope_rows(dates, scan, [], [], SETTINGS)
+    assert "No link met another extremal" in W.envelope_sentence([], flat, 1e-5)
+    assert "At no date is an extremal found heavier" in W.envelope_sentence([], flat, 1e-5)

@@ -1,0 +1,30 @@
+"""results/perturbed/e6_walks.csv (every step of every E6 family walk) and e6_envelope.csv (at
+each date, the distinct extremals found and the heaviest; spaceopt.studies.scan_walks)."""
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _step import run_step  # noqa: E402
+
+from spaceopt import artifacts  # noqa: E402
+from spaceopt.report.tables import read_csv, write_csv  # noqa: E402
+from spaceopt.studies import scan_walks as W  # noqa: E402
+
+
+def main(sm):
+    walks = [artifacts.read_json(p)["walk"] for p in sm.input.walks]
+    steps = W.step_rows(walks)
+    scan = {}
+    for d, path in zip(sm.params.dates, sm.input.dates):
+        s = artifacts.read_json(path)["scalars"]
+        scan[d] = (s["m_f_kg"], s["tof_days"])
+    links = read_csv(sm.input.families[0])
+    write_csv(sm.output.steps, steps, W.STEP_COLUMNS)
+    write_csv(sm.output.envelope, W.envelope_rows(sm.params.dates, scan, links, steps, sm.params.links),
+              W.ENVELOPE_COLUMNS)
+
+
+if __name__ == "__main__":
+    with open(snakemake.log[0], "w") as log:  # noqa: F821
+        sys.stderr = log
+        run_step(main, snakemake)  # noqa: F821
