@@ -85,8 +85,9 @@ def measured(results: Path) -> dict:
     if links:   # the E6 family links (studies.scan_families): beside the scan, not part of it
         out["e6_links"] = {"links": len(links), "total_s": sum(r["wall_time_s"] for r in links),
                            "jacobian_evaluations": sum(r.get("jacobian_evaluations") or 0 for r in links)}
-    steps = [s for p in sorted(base.glob("e6_walks/*.json")) for s in artifacts.read_json(p)["walk"]["steps"]]
-    if steps:   # the E6 family walks (studies.scan_walks): each step a link
+    walks = [p for p in sorted(base.glob("e6_walks/*.json")) if not p.name.endswith(".steps.json")]
+    steps = [s for p in walks for s in artifacts.read_json(p)["walk"]["steps"]]
+    if steps:   # the E6 family walks (studies.scan_walks; not an unfinished walk's resume file): each step a link
         out["e6_walks"] = {"steps": len(steps), "total_s": sum(s.get("wall_time_s") or 0.0 for s in steps),
                            "jacobian_evaluations": sum(s.get("jacobian_evaluations") or 0 for s in steps)}
     return out
