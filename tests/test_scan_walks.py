@@ -109,3 +109,63 @@ def test_the_envelope_keeps_the_distinct_extremals_of_a_date_and_the_heaviest():
     flat = W.envelope_rows(dates, scan, [], [], SETTINGS)
     assert "No link met another extremal" in W.envelope_sentence([], flat, 1e-5)
     assert "At no date is an extremal found heavier" in W.envelope_sentence([], flat, 1e-5)
+
+
+def _walk_script():
+    import importlib.util
+    import sys
+    sys.path.insert(0, str(ROOT / "workflow" / "scripts"))
+    spec = importlib.util.spec_from_file_location("perturbed_e6_walk", ROOT / "workflow/scripts/perturbed_e6_walk.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _job(tmp_path, status):
+    from types import SimpleNamespace
+    from spaceopt import artifacts
+    link = tmp_path / "link.json"
+    artifacts.write_json(link, {"link": {"status": status, "z": [961.0, 0.0]}})
+    scans = []
+    for d in ("d2", "d3", "d4"):
+        scans.append(tmp_path / f"{d}.json")
+        artifacts.write_json(scans[-1], {"scalars": {"m_f_kg": 950.0, "tof_days": 59.0}})
+    out = tmp_path / "walks" / "d1_to_d2.json"
+    return SimpleNamespace(params=SimpleNamespace(cfg={"links": SETTINGS, "walks": {"max_days": 31}}, case="e5",
+                                                  dates=["d2", "d3", "d4"]),
+                           wildcards=SimpleNamespace(a="d1", b="d2"),
+                           input=SimpleNamespace(link=str(link), scan=[str(p) for p in scans]), output=[str(out)]), out
+
+
+def test_the_walk_job_resumes_from_its_recorded_steps_and_removes_them_when_done(tmp_path, monkeypatch):
+    """An interrupted walk job (a step raised) keeps its finished steps in the resume file; the
+    rerun walks on from them, writes the record and removes the file. A resume file of another
+    link extremal or config is not used. A link that is not 'other' gives an empty walk."""
+    from spaceopt import artifacts
+    script = _walk_script()
+    monkeypatch.setattr(script.P, "load", lambda path: _sol(Path(path).stem, [0.0, 0.0]))
+    links = ScriptedLinks({"d3": ("other", 960.0), "d4": ("same", 950.0)})
+    monkeypatch.setattr(W, "continue_to", links)
+    sm, out = _job(tmp_path, "other")
+
+    def crash_after_first(start, tr_to, *args):
+        if tr_to == "d4":
+            raise KeyboardInterrupt
+        return links(start, tr_to, *args)
+    monkeypatch.setattr(W, "continue_to", crash_after_first)
+    with pytest.raises(KeyboardInterrupt):
+        script.main(sm)
+    resume = script.resume_file(out)
+    assert [s["date"] for s in artifacts.read_json(resume)["steps"]] == ["d3"] and not out.exists()
+    monkeypatch.setattr(W, "continue_to", links)
+    links.starts.clear()
+    script.main(sm)
+    assert links.starts == [("d3", 960.0)]                       # on from the recorded step, not from d2
+    walk = artifacts.read_json(out)["walk"]
+    assert [(s["date"], s["status"]) for s in walk["steps"]] == [("d3", "other"), ("d4", "same")]
+    assert not resume.exists()
+    artifacts.write_json(resume, {"key": {"config": "another", "z": [961.0, 0.0]}, "steps": walk["steps"][:1]})
+    assert script.done_steps(resume, {"config": "this", "z": [961.0, 0.0]}) == []
+    sm_flat, out_flat = _job(tmp_path / "flat", "same")
+    script.main(sm_flat)
+    assert artifacts.read_json(out_flat)["walk"]["steps"] == []
