@@ -1178,3 +1178,24 @@ def test_a_failed_polish_reports_its_best_point_beside_where_it_stopped():
     d = info.value.diagnosis
     assert d["residual_best"] == pytest.approx(0.1) and d["residual"] > 1.5 * d["residual_best"]
     np.testing.assert_array_equal(d["z_best"], start)
+
+
+def test_the_e6_latex_tables_add_the_dates_where_another_familys_extremal_is_heavier():
+    """R.latex with the envelope (spaceopt.studies.scan_walks.envelope_rows): after the E6
+    table, a table of the dates whose heaviest extremal found is another date's family; none
+    where the scan's extremal is the heaviest at every date."""
+    from spaceopt.studies import perturbed_report as R
+    tabs = {n: [] for n in R.COLUMNS}
+    tabs["e6_date_scan"] = [{"date": d, "model": "g44_moon_sun", "m_f_kg": 957.0, "tof_days": 60.0}
+                            for d in ("2021-05-08", "2021-05-09")]
+    env = [{"date": "2021-05-08", "scan_m_f_kg": 957.0, "m_f_kg": 957.0, "tof_days": 60.0, "gain_kg": 0.0,
+            "family_of": "2021-05-08"},
+           {"date": "2021-05-09", "scan_m_f_kg": 957.0, "m_f_kg": 960.5, "tof_days": 65.19, "gain_kg": 3.5,
+            "family_of": "2021-05-10"}]
+    tex = R.latex(tabs, e6_envelope=env)
+    assert tex.count(r"\begin{table}") == 2 and tex.index("departure-date scan") < tex.index("heavier than the scan")
+    heavier = tex[tex.index("heavier than the scan"):]
+    assert "2021-05-09 & $957.000000$ & $960.500000$ & $65.190000$ & $3.500000$ & 2021-05-10" in heavier
+    assert "2021-05-08" not in heavier
+    assert R.latex(tabs, e6_envelope=env[:1]) == R.latex(tabs)
+    assert R.latex(tabs).count(r"\begin{table}") == 1

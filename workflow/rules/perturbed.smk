@@ -290,7 +290,7 @@ PT_TABLES = ["e5", "e6_date_scan", "e7", "e8", "e9"]
 
 rule perturbed_tables:
     input: **pt_stage_jsons(), _budget=f"{PTDIR}/e9_budget.json",
-           _pub="config/published/yun2023_perturbed.yaml", _verify=pt_verify_files(),
+           _pub="config/published/yun2023_perturbed.yaml", _verify=pt_verify_files(), _envelope=E6_ENVELOPE,
            _src=lib_sources("report/compare", "studies/perturbed_report")
     output:
         **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},

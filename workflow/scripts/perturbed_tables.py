@@ -6,7 +6,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _step import run_step  # noqa: E402
 
 from spaceopt import artifacts  # noqa: E402
-from spaceopt.report.tables import write_csv  # noqa: E402
+from spaceopt.report.tables import read_csv, write_csv  # noqa: E402
 from spaceopt.studies import perturbed_report as R  # noqa: E402
 from spaceopt.studies.verify import verification_rows, write_verification_csv  # noqa: E402
 
@@ -24,7 +24,8 @@ def main(sm):
     e6sum = R.e6_summary(tabs["e6_date_scan"], unpert, sm.params.e6.get("skip_dates") or [])
     Path(sm.output.md).write_text(R.markdown(tabs, e6sum, budget))
     Path(sm.output.tex).parent.mkdir(parents=True, exist_ok=True)
-    Path(sm.output.tex).write_text(R.latex(tabs))
+    envelope = read_csv(sm.input._envelope[0]) if sm.input._envelope else []
+    Path(sm.output.tex).write_text(R.latex(tabs, e6_envelope=envelope))
     write_csv(sm.output.tof_maximum, R.tof_maximum_rows(payloads), R.TOF_MAXIMUM_COLUMNS)
     ver_rows = verification_rows(sm.input._verify)
     write_verification_csv(sm.output.verify, ver_rows)

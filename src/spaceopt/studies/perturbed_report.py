@@ -37,7 +37,8 @@ HEADERS = {"model": ("model", ""), "date": ("departure", ""), "n_rev": ("revolut
            "m_f_kg": ("$m_f$", "kg"), "tof_days": (r"$\Delta t$", "d"), "K_f_deg": ("$K_f$", "deg"),
            "propellant_kg": ("$m_p$", "kg"), "m_p_kg": ("$m_p$", "kg"), "dv_m_s": (r"$\Delta V$", "m/s"),
            "burn_h": ("burn time", "h"), "dm_f_kg": (r"$m_f - m_f^{\mathrm{unp}}$", "kg"),
-           "dtof_days": (r"$\Delta t - \Delta t^{\mathrm{unp}}$", "d")}
+           "dtof_days": (r"$\Delta t - \Delta t^{\mathrm{unp}}$", "d"),
+           "scan_m_f_kg": (r"the scan's $m_f$", "kg"), "gain_kg": ("gain", "kg"), "family_of": ("family of", "")}
 TABLE_CAPTIONS = {"e5": "E5, 5-revolution HEO to HEO (Table 4.2.1.2 scalars)",
                   "e6_date_scan": "E6, departure-date scan over May 2021: 4$\\times$4 + Moon + Sun, and the differences from the unperturbed solution",
                   "e7": "E7, 100-revolution GTO to Molniya, 1 N",
@@ -362,26 +363,36 @@ def e6_wide(rows: list) -> list:
 
 
 LATEX_LAYOUT = {"e6_date_scan": (["date", "m_f_kg", "tof_days", "dm_f_kg", "dtof_days"], e6_wide)}
+# the table of the E6 dates where an extremal heavier than the scan's was found (perturbed.e6.walks)
+E6_ENVELOPE_COLUMNS = ["date", "scan_m_f_kg", "m_f_kg", "tof_days", "gain_kg", "family_of"]
+E6_ENVELOPE_CAPTION = ("E6, the dates where an extremal heavier than the scan's was found: a neighbouring date's "
+                       "family, continued in the departure epoch (family links and walks, perturbed.e6.links and "
+                       "perturbed.e6.walks)")
 
 
-def latex(tabs: dict) -> str:
+def latex(tabs: dict, e6_envelope=()) -> str:
+    """The LaTeX tables; ``e6_envelope``: rows of ``e6_envelope.csv``
+    (:func:`spaceopt.studies.scan_walks.envelope_rows`): after the E6 table, its dates whose
+    heaviest extremal found is another date's family."""
     out = []
     for name, cols in COLUMNS.items():
-        if not tabs[name]:
-            continue
-        cols, layout = LATEX_LAYOUT.get(name, (cols, list))
-        out.append(r"\begin{table}[htbp]\centering\small")
-        out.append(r"\caption{" + TABLE_CAPTIONS[name] + ", ours.}")
-        out.append(r"\begin{tabular}{l" + "r" * (len(cols) - 1) + "}")
-        out.append(r"\toprule")
-        out.append(" & ".join(HEADERS[c][0] + (f", {HEADERS[c][1]}" if HEADERS[c][1] else "") for c in cols) + r" \\")
-        out.append(r"\midrule")
-        for r in layout(tabs[name]):
-            out.append(" & ".join(_cell(c, r.get(c, "")) for c in cols) + r" \\")
-        out.append(r"\bottomrule")
-        out.append(r"\end{tabular}")
-        out.append(r"\end{table}")
+        if tabs[name]:
+            cols, layout = LATEX_LAYOUT.get(name, (cols, list))
+            out += _latex_table(TABLE_CAPTIONS[name] + ", ours", cols, layout(tabs[name]))
+        if name == "e6_date_scan":
+            heavier = [r for r in e6_envelope if r["family_of"] != r["date"]]
+            if heavier:
+                out += _latex_table(latex_escape(E6_ENVELOPE_CAPTION), E6_ENVELOPE_COLUMNS, heavier)
     return "\n".join(out) + "\n"
+
+
+def _latex_table(caption: str, cols: list, rows: list) -> list:
+    out = [r"\begin{table}[htbp]\centering\small", r"\caption{" + caption + ".}",
+           r"\begin{tabular}{l" + "r" * (len(cols) - 1) + "}", r"\toprule",
+           " & ".join(HEADERS[c][0] + (f", {HEADERS[c][1]}" if HEADERS[c][1] else "") for c in cols) + r" \\",
+           r"\midrule"]
+    out += [" & ".join(_cell(c, r.get(c, "")) for c in cols) + r" \\" for r in rows]
+    return out + [r"\bottomrule", r"\end{tabular}", r"\end{table}"]
 
 
 MODEL_TEX = {"unperturbed": "unperturbed", "j2": "$J_2$", "g44": "4$\\times$4",
