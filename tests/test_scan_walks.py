@@ -92,7 +92,7 @@ def test_the_envelope_keeps_the_distinct_extremals_of_a_date_and_the_heaviest():
     steps = [_step("d1", "d2", "d3", "other", 958.2, 62.0),
              _step("d1", "d2", "d4", "same", 958.0, 55.0),
              _step("d4", "d3", "d2", "other", 957.0 + 5e-6, 65.0002),         # the scan's extremal again
-             _step("d4", "d3", "d1", "failed", None, None)]
+             {**_step("d4", "d3", "d1", "failed", None, None), "reason": "the path turned back and ran below tau = -1"}]
     env = {r["date"]: r for r in W.envelope_rows(dates, scan, links, steps, SETTINGS)}
     assert [env[d]["extremals"] for d in dates] == [1, 2, 3, 1]
     assert env["d2"]["family_of"] == "d1" and env["d2"]["m_f_kg"] == 959.5 and env["d2"]["gain_kg"] == pytest.approx(2.5)
@@ -103,7 +103,12 @@ def test_the_envelope_keeps_the_distinct_extremals_of_a_date_and_the_heaviest():
     assert rows == [{**{k: None for k in W.STEP_COLUMNS}, "from_date": "d1", "link_to": "d2", "date": "d3",
                      "status": "other", "m_f_kg": 1.0}]
     text = W.envelope_sentence(steps, list(env.values()), 1e-5)
-    assert "(2 walks, 4 steps: 2 other, 1 same, 1 failed)" in text
+    assert "(2 walks, 4 steps: 2 other, 1 same, 1 failed): the family of d1 (through d2) meets the scan's " \
+           "extremal at d4; the family of d4 (through d3) turns back between d2 and d1." in text
+    assert W.walk_ends([_step("a", "b", "c", "other", 1.0), {**_step("a", "b", "d", "failed", None), "reason": "x"},
+                        _step("e", "f", "g", "not certified", 1.0)]) == [
+        "the family of a (through b) stops between c and d (x)", "the family of e (through f) has no certified maximum at g"]
+    assert W.walk_ends([_step("a", "b", "c", "other", 1.0)]) == ["the family of a (through b) is followed to c, where the walk ends"]
     assert "At 2 of 4 dates an extremal found is heavier than the scan's own (up to +2.5000 kg at d2, on the family of d1)" in text
     assert "up to 3 distinct local maxima" in text and "from 958.0000 to 960.0000 kg" in text
     flat = W.envelope_rows(dates, scan, [], [], SETTINGS)

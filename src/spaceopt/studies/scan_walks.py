@@ -29,7 +29,7 @@ import dataclasses
 import numpy as np
 
 from . import perturbed as P
-from .scan_families import continue_to, same_extremal
+from .scan_families import TURNED_BACK, continue_to, same_extremal
 
 STEP_COLUMNS = ["from_date", "link_to", "date", "status", "m_f_kg", "tof_days", "scan_m_f_kg", "scan_tof_days",
                 "dm_f_g", "tau_max", "reason", "jacobian_evaluations", "wall_time_s"]
@@ -113,25 +113,47 @@ def envelope_rows(dates: list[str], scan: dict, links: list[dict], steps: list[d
 
 
 def envelope_sentence(steps: list[dict], envelope: list[dict], mass_tol_kg: float) -> str:
-    """The paper's account of the walks and the envelope (plain text; the caller escapes it)."""
-    walks = {(s["from_date"], s["link_to"]) for s in steps}
+    """The paper's account of the walks (where each ends, :func:`walk_ends`) and the envelope
+    (plain text; the caller escapes it)."""
     if not envelope:
         return ""
-    text = (f"Each family that a link met was followed on, date by date, in the same direction "
-            f"({len(walks)} walk{'s' if len(walks) != 1 else ''}, {len(steps)} step{'s' if len(steps) != 1 else ''}: "
-            + ", ".join(f"{n} {s}" for s, n in _counts(steps)) + ")." if steps else
-            "No link met another extremal, so no family was followed on.")
+    if not steps:
+        text = "No link met another extremal, so no family was followed on."
+    else:
+        walks = {(s["from_date"], s["link_to"]) for s in steps}
+        text = (f"Each family that a link met was followed on, date by date, in the same direction "
+                f"({len(walks)} walk{'s' if len(walks) != 1 else ''}, {len(steps)} step{'s' if len(steps) != 1 else ''}: "
+                + ", ".join(f"{n} {s}" for s, n in _counts(steps)) + "): " + "; ".join(walk_ends(steps)) + ".")
     above = [r for r in envelope if r["gain_kg"] > mass_tol_kg]
     if not above:
         return text + " At no date is an extremal found heavier than the scan's own."
     best = max(above, key=lambda r: r["gain_kg"])
-    n_max = max(r["extremals"] for r in envelope)
+    n_max = int(max(r["extremals"] for r in envelope))
     return text + (
         f" At {len(above)} of {len(envelope)} dates an extremal found is heavier than the scan's own "
         f"(up to {best['gain_kg']:+.4f} kg at {best['date']}, on the family of {best['family_of']}); "
         f"up to {n_max} distinct local maxima of m_f in the transfer time were found at one date. "
         f"The upper envelope of them has m_f from {min(r['m_f_kg'] for r in envelope):.4f} to "
         f"{max(r['m_f_kg'] for r in envelope):.4f} kg.")
+
+
+def walk_ends(steps: list[dict]) -> list[str]:
+    """Where each walk (rows of :func:`step_rows`, in order) ends, in words: the family of its
+    link's first date, and its last step."""
+    walks: dict = {}
+    for s in steps:
+        walks.setdefault((s["from_date"], s["link_to"]), []).append(s)
+    out = []
+    for (a, b), ss in walks.items():
+        last, before = ss[-1], (ss[-2]["date"] if len(ss) > 1 else b)
+        end = {"other": f"is followed to {last['date']}, where the walk ends",
+               "same": f"meets the scan's extremal at {last['date']}",
+               "not certified": f"has no certified maximum at {last['date']}"}.get(last["status"])
+        if end is None:
+            end = (f"turns back between {before} and {last['date']}" if TURNED_BACK in str(last.get("reason"))
+                   else f"stops between {before} and {last['date']} ({last.get('reason')})")
+        out.append(f"the family of {a} (through {b}) {end}")
+    return out
 
 
 def _counts(steps: list[dict]) -> list[tuple[str, int]]:
