@@ -1189,13 +1189,13 @@ def test_the_e6_latex_tables_add_the_dates_where_another_familys_extremal_is_hea
     tabs["e6_date_scan"] = [{"date": d, "model": "g44_moon_sun", "m_f_kg": 957.0, "tof_days": 60.0}
                             for d in ("2021-05-08", "2021-05-09")]
     env = [{"date": "2021-05-08", "scan_m_f_kg": 957.0, "m_f_kg": 957.0, "tof_days": 60.0, "gain_kg": 0.0,
-            "family_of": "2021-05-08"},
+            "family_of": "2021-05-08", "arrival_utc": "2021-07-07T12:00"},
            {"date": "2021-05-09", "scan_m_f_kg": 957.0, "m_f_kg": 960.5, "tof_days": 65.19, "gain_kg": 3.5,
-            "family_of": "2021-05-10"}]
+            "family_of": "2021-05-10", "arrival_utc": "2021-07-13T16:33"}]
     tex = R.latex(tabs, e6_envelope=env)
     assert tex.count(r"\begin{table}") == 2 and tex.index("departure-date scan") < tex.index("heavier than the scan")
     heavier = tex[tex.index("heavier than the scan"):]
-    assert "2021-05-09 & $957.000000$ & $960.500000$ & $65.190000$ & $3.500000$ & 2021-05-10" in heavier
+    assert "2021-05-09 & $957.000000$ & $960.500000$ & $65.190000$ & $3.500000$ & 2021-05-10 & 2021-07-13T16:33" in heavier
     assert "2021-05-08" not in heavier
     assert R.latex(tabs, e6_envelope=env[:1]) == R.latex(tabs)
     assert R.latex(tabs).count(r"\begin{table}") == 1

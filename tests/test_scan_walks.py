@@ -84,32 +84,36 @@ def _step(a, b, date, status, m, t=60.0):
 
 
 def test_the_envelope_keeps_the_distinct_extremals_of_a_date_and_the_heaviest():
-    dates = ["d1", "d2", "d3", "d4"]
-    scan = {"d1": (960.0, 60.0), "d2": (957.0, 65.0), "d3": (956.0, 59.0), "d4": (958.0, 55.0)}
-    links = [{"from_date": "d1", "to_date": "d2", "status": "other", "m_f_kg": 959.5, "tof_days": 61.0},
-             {"from_date": "d2", "to_date": "d1", "status": "same", "m_f_kg": 960.0, "tof_days": 60.0},
-             {"from_date": "d4", "to_date": "d3", "status": "other", "m_f_kg": 955.0, "tof_days": 57.0}]
-    steps = [_step("d1", "d2", "d3", "other", 958.2, 62.0),
-             _step("d1", "d2", "d4", "same", 958.0, 55.0),
-             _step("d4", "d3", "d2", "other", 957.0 + 5e-6, 65.0002),         # the scan's extremal again
-             {**_step("d4", "d3", "d1", "failed", None, None), "reason": "the path turned back and ran below tau = -1"}]
+    dates = ["2021-05-01", "2021-05-02", "2021-05-03", "2021-05-04"]
+    scan = {"2021-05-01": (960.0, 60.0), "2021-05-02": (957.0, 65.0), "2021-05-03": (956.0, 59.0), "2021-05-04": (958.0, 55.0)}
+    links = [{"from_date": "2021-05-01", "to_date": "2021-05-02", "status": "other", "m_f_kg": 959.5, "tof_days": 61.0},
+             {"from_date": "2021-05-02", "to_date": "2021-05-01", "status": "same", "m_f_kg": 960.0, "tof_days": 60.0},
+             {"from_date": "2021-05-04", "to_date": "2021-05-03", "status": "other", "m_f_kg": 955.0, "tof_days": 57.0}]
+    steps = [_step("2021-05-01", "2021-05-02", "2021-05-03", "other", 958.2, 62.0),
+             _step("2021-05-01", "2021-05-02", "2021-05-04", "same", 958.0, 55.0),
+             _step("2021-05-04", "2021-05-03", "2021-05-02", "other", 957.0 + 5e-6, 65.0002),         # the scan's extremal again
+             {**_step("2021-05-04", "2021-05-03", "2021-05-01", "failed", None, None), "reason": "the path turned back and ran below tau = -1"}]
     env = {r["date"]: r for r in W.envelope_rows(dates, scan, links, steps, SETTINGS)}
     assert [env[d]["extremals"] for d in dates] == [1, 2, 3, 1]
-    assert env["d2"]["family_of"] == "d1" and env["d2"]["m_f_kg"] == 959.5 and env["d2"]["gain_kg"] == pytest.approx(2.5)
-    assert env["d3"]["family_of"] == "d1" and env["d3"]["tof_days"] == 62.0
-    assert env["d1"]["family_of"] == "d1" and env["d1"]["gain_kg"] == 0.0
-    rows = W.step_rows([{"from_date": "d1", "to_date": "d2", "steps": [{"date": "d3", "status": "other", "m_f_kg": 1.0}]},
-                        {"from_date": "d2", "to_date": "d1", "steps": []}])
-    assert rows == [{**{k: None for k in W.STEP_COLUMNS}, "from_date": "d1", "link_to": "d2", "date": "d3",
+    assert env["2021-05-02"]["family_of"] == "2021-05-01" and env["2021-05-02"]["m_f_kg"] == 959.5 and env["2021-05-02"]["gain_kg"] == pytest.approx(2.5)
+    assert env["2021-05-03"]["family_of"] == "2021-05-01" and env["2021-05-03"]["tof_days"] == 62.0
+    assert env["2021-05-01"]["family_of"] == "2021-05-01" and env["2021-05-01"]["gain_kg"] == 0.0
+    assert env["2021-05-02"]["arrival_utc"] == "2021-07-02T12:00"          # departure 12:00 + 61 d
+    assert W.arrival("2021-05-10", "12:00:00", 64.1158) == "2021-07-13T14:46"
+    real = W.envelope_rows(["2021-05-09"], {"2021-05-09": (957.5, 65.0)}, [], [], SETTINGS, "06:00:00")
+    assert real[0]["arrival_utc"] == "2021-07-13T06:00"
+    rows = W.step_rows([{"from_date": "2021-05-01", "to_date": "2021-05-02", "steps": [{"date": "2021-05-03", "status": "other", "m_f_kg": 1.0}]},
+                        {"from_date": "2021-05-02", "to_date": "2021-05-01", "steps": []}])
+    assert rows == [{**{k: None for k in W.STEP_COLUMNS}, "from_date": "2021-05-01", "link_to": "2021-05-02", "date": "2021-05-03",
                      "status": "other", "m_f_kg": 1.0}]
     text = W.envelope_sentence(steps, list(env.values()), 1e-5)
-    assert "(2 walks, 4 steps: 2 other, 1 same, 1 failed): the family of d1 (through d2) meets the scan's " \
-           "extremal at d4; the family of d4 (through d3) turns back between d2 and d1." in text
+    assert "(2 walks, 4 steps: 2 other, 1 same, 1 failed): the family of 2021-05-01 (through 2021-05-02) meets the scan's " \
+           "extremal at 2021-05-04; the family of 2021-05-04 (through 2021-05-03) turns back between 2021-05-02 and 2021-05-01." in text
     assert W.walk_ends([_step("a", "b", "c", "other", 1.0), {**_step("a", "b", "d", "failed", None), "reason": "x"},
                         _step("e", "f", "g", "not certified", 1.0)]) == [
         "the family of a (through b) stops between c and d (x)", "the family of e (through f) has no certified maximum at g"]
     assert W.walk_ends([_step("a", "b", "c", "other", 1.0)]) == ["the family of a (through b) is followed to c, where the walk ends"]
-    assert "At 2 of 4 dates an extremal found is heavier than the scan's own (up to +2.5000 kg at d2, on the family of d1)" in text
+    assert "At 2 of 4 dates an extremal found is heavier than the scan's own (up to +2.5000 kg at 2021-05-02, on the family of 2021-05-01)" in text
     assert "up to 3 distinct local maxima" in text and "from 958.0000 to 960.0000 kg" in text
     flat = W.envelope_rows(dates, scan, [], [], SETTINGS)
     assert "No link met another extremal" in W.envelope_sentence([], flat, 1e-5)

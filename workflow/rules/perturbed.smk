@@ -190,7 +190,7 @@ rule perturbed_e6_envelope:
     input: walks=pt_e6_walk_files(), families=E6_FAMILIES, dates=[f"{PTDIR}/e6/{d}.json" for d in E6_DATES],
            _src=lib_sources("studies/scan_walks")
     output: steps=f"{PTDIR}/e6_walks.csv", envelope=f"{PTDIR}/e6_envelope.csv"
-    params: dates=E6_DATES, links=E6_LINKS
+    params: dates=E6_DATES, links=E6_LINKS, time_utc=E6.get("time_utc", "12:00:00")
     log: f"{PTDIR}/logs/e6_envelope.log"
     script: "../scripts/perturbed_e6_envelope.py"
 

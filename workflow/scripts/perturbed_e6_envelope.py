@@ -20,8 +20,8 @@ def main(sm):
         scan[d] = (s["m_f_kg"], s["tof_days"])
     links = read_csv(sm.input.families[0])
     write_csv(sm.output.steps, steps, W.STEP_COLUMNS)
-    write_csv(sm.output.envelope, W.envelope_rows(sm.params.dates, scan, links, steps, sm.params.links),
-              W.ENVELOPE_COLUMNS)
+    write_csv(sm.output.envelope, W.envelope_rows(sm.params.dates, scan, links, steps, sm.params.links,
+                                                  sm.params.time_utc), W.ENVELOPE_COLUMNS)
 
 
 if __name__ == "__main__":

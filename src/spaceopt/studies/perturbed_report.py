@@ -38,7 +38,8 @@ HEADERS = {"model": ("model", ""), "date": ("departure", ""), "n_rev": ("revolut
            "propellant_kg": ("$m_p$", "kg"), "m_p_kg": ("$m_p$", "kg"), "dv_m_s": (r"$\Delta V$", "m/s"),
            "burn_h": ("burn time", "h"), "dm_f_kg": (r"$m_f - m_f^{\mathrm{unp}}$", "kg"),
            "dtof_days": (r"$\Delta t - \Delta t^{\mathrm{unp}}$", "d"),
-           "scan_m_f_kg": (r"the scan's $m_f$", "kg"), "gain_kg": ("gain", "kg"), "family_of": ("family of", "")}
+           "scan_m_f_kg": (r"the scan's $m_f$", "kg"), "gain_kg": ("gain", "kg"), "family_of": ("family of", ""),
+           "arrival_utc": ("arrival", "UTC")}
 TABLE_CAPTIONS = {"e5": "E5, 5-revolution HEO to HEO (Table 4.2.1.2 scalars)",
                   "e6_date_scan": "E6, departure-date scan over May 2021: 4$\\times$4 + Moon + Sun, and the differences from the unperturbed solution",
                   "e7": "E7, 100-revolution GTO to Molniya, 1 N",
@@ -364,7 +365,7 @@ def e6_wide(rows: list) -> list:
 
 LATEX_LAYOUT = {"e6_date_scan": (["date", "m_f_kg", "tof_days", "dm_f_kg", "dtof_days"], e6_wide)}
 # the table of the E6 dates where an extremal heavier than the scan's was found (perturbed.e6.walks)
-E6_ENVELOPE_COLUMNS = ["date", "scan_m_f_kg", "m_f_kg", "tof_days", "gain_kg", "family_of"]
+E6_ENVELOPE_COLUMNS = ["date", "scan_m_f_kg", "m_f_kg", "tof_days", "gain_kg", "family_of", "arrival_utc"]
 E6_ENVELOPE_CAPTION = ("E6, the dates where an extremal heavier than the scan's was found: a neighbouring date's "
                        "family, continued in the departure epoch (family links and walks, perturbed.e6.links and "
                        "perturbed.e6.walks)")

@@ -25,6 +25,7 @@ link is not ``other``.
 from __future__ import annotations
 
 import dataclasses
+import datetime
 
 import numpy as np
 
@@ -33,7 +34,8 @@ from .scan_families import TURNED_BACK, continue_to, same_extremal
 
 STEP_COLUMNS = ["from_date", "link_to", "date", "status", "m_f_kg", "tof_days", "scan_m_f_kg", "scan_tof_days",
                 "dm_f_g", "tau_max", "reason", "jacobian_evaluations", "wall_time_s"]
-ENVELOPE_COLUMNS = ["date", "scan_m_f_kg", "scan_tof_days", "extremals", "m_f_kg", "tof_days", "family_of", "gain_kg"]
+ENVELOPE_COLUMNS = ["date", "scan_m_f_kg", "scan_tof_days", "extremals", "m_f_kg", "tof_days", "family_of", "gain_kg",
+                    "arrival_utc"]
 
 
 def walk_settings(pc: dict) -> dict | None:
@@ -90,12 +92,14 @@ def step_rows(walks: list[dict]) -> list[dict]:
             for w in walks for s in w["steps"]]
 
 
-def envelope_rows(dates: list[str], scan: dict, links: list[dict], steps: list[dict], settings: dict) -> list[dict]:
+def envelope_rows(dates: list[str], scan: dict, links: list[dict], steps: list[dict], settings: dict,
+                  time_utc: str = "12:00:00") -> list[dict]:
     """Rows of ``e6_envelope.csv``, one per date: the scan's extremal, the number of distinct
     certified maxima found there (the scan's, and those of ``other`` links, ``links``: rows of
     ``e6_families.csv``, and of walk steps, ``steps``: :func:`step_rows`), the heaviest, the scan
-    date whose family it is (``family_of``), and its gain over the scan's. ``scan``:
-    {date: (m_f_kg, tof_days)}."""
+    date whose family it is (``family_of``), its gain over the scan's, and its arrival (UTC,
+    departure at ``time_utc`` plus Δt: along a family it stays nearly fixed, so it tells the
+    families apart). ``scan``: {date: (m_f_kg, tof_days)}."""
     found = {d: [(*scan[d], d)] for d in dates}
     met = [(r["to_date"], r) for r in links] + [(s["date"], s) for s in steps]
     for date, r in met:
@@ -108,8 +112,16 @@ def envelope_rows(dates: list[str], scan: dict, links: list[dict], steps: list[d
     for d in dates:
         m, t, family = max(found[d], key=lambda e: e[0])
         rows.append({"date": d, "scan_m_f_kg": scan[d][0], "scan_tof_days": scan[d][1], "extremals": len(found[d]),
-                     "m_f_kg": m, "tof_days": t, "family_of": family, "gain_kg": m - scan[d][0]})
+                     "m_f_kg": m, "tof_days": t, "family_of": family, "gain_kg": m - scan[d][0],
+                     "arrival_utc": arrival(d, time_utc, t)})
     return rows
+
+
+def arrival(date: str, time_utc: str, tof_days: float) -> str:
+    """The arrival epoch (UTC, to the minute) of a departure at ``date`` ``time_utc`` after
+    ``tof_days``."""
+    t = datetime.datetime.fromisoformat(f"{date}T{time_utc}") + datetime.timedelta(days=tof_days)
+    return t.isoformat(timespec="minutes")
 
 
 def envelope_sentence(steps: list[dict], envelope: list[dict], mass_tol_kg: float) -> str:
