@@ -8,16 +8,13 @@ from _step import run_step  # noqa: E402
 
 from spaceopt import artifacts  # noqa: E402
 from spaceopt.report.tables import read_csv, write_csv  # noqa: E402
-from spaceopt.studies import scan_walks as W  # noqa: E402
+from spaceopt.studies import scan_families as F, scan_walks as W  # noqa: E402
 
 
 def main(sm):
     walks = [artifacts.read_json(p)["walk"] for p in sm.input.walks]
     steps = W.step_rows(walks)
-    scan = {}
-    for d, path in zip(sm.params.dates, sm.input.dates):
-        s = artifacts.read_json(path)["scalars"]
-        scan[d] = (s["m_f_kg"], s["tof_days"])
+    scan = F.scan_values(sm.params.dates, sm.input.dates)
     links = read_csv(sm.input.families[0])
     write_csv(sm.output.steps, steps, W.STEP_COLUMNS)
     write_csv(sm.output.envelope, W.envelope_rows(sm.params.dates, scan, links, steps, sm.params.links,

@@ -16,10 +16,7 @@ def main(sm):
     for path in sm.input.links:
         rec = artifacts.read_json(path)["link"]
         links[(rec["from_date"], rec["to_date"])] = rec
-    scan = {}
-    for d, path in zip(sm.params.dates, sm.input.dates):
-        s = artifacts.read_json(path)["scalars"]
-        scan[d] = (s["m_f_kg"], s["tof_days"])
+    scan = F.scan_values(sm.params.dates, sm.input.dates)
     rows = F.family_rows(links, [tuple(p) for p in sm.params.starts], scan)
     write_csv(sm.output[0], rows, F.COLUMNS)
 

@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import time
 
+from .. import artifacts
 from ..errors import ConvergenceError
 from ..indirect.continuation import ContinuationOptions
 from . import multirev, perturbed as P
@@ -110,6 +111,12 @@ def continue_to(start, tr_to, scan: dict, pc: dict, case: str, label: str, setti
             "jacobian_evaluations": jacobians, "wall_time_s": time.perf_counter() - t0,
             "warm_path": moved.stats.get("warm_path"),
             "z": [float(v) for v in sol.z], "tof_maximum": end_game}, sol
+
+
+def scan_values(dates: list[str], paths: list) -> dict:
+    """{date: (m_f_kg, tof_days)} from the scan's artifacts ``paths`` of ``dates``."""
+    scalars = {d: artifacts.read_json(p)["scalars"] for d, p in zip(dates, paths)}
+    return {d: (s["m_f_kg"], s["tof_days"]) for d, s in scalars.items()}
 
 
 def family_rows(links: dict, starts: list[tuple[str, str]], scan: dict) -> list[dict]:

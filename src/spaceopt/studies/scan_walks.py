@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
+from collections import Counter
 
 import numpy as np
 
@@ -133,9 +134,10 @@ def envelope_sentence(steps: list[dict], envelope: list[dict], mass_tol_kg: floa
         text = "No link met another extremal, so no family was followed on."
     else:
         walks = {(s["from_date"], s["link_to"]) for s in steps}
+        counts = Counter(s["status"] for s in steps)
         text = (f"Each family that a link met was followed on, date by date, in the same direction "
                 f"({len(walks)} walk{'s' if len(walks) != 1 else ''}, {len(steps)} step{'s' if len(steps) != 1 else ''}: "
-                + ", ".join(f"{n} {s}" for s, n in _counts(steps)) + "): " + "; ".join(walk_ends(steps)) + ".")
+                + ", ".join(f"{n} {status}" for status, n in counts.items()) + "): " + "; ".join(walk_ends(steps)) + ".")
     above = [r for r in envelope if r["gain_kg"] > mass_tol_kg]
     if not above:
         return text + " At no date is an extremal found heavier than the scan's own."
@@ -167,9 +169,3 @@ def walk_ends(steps: list[dict]) -> list[str]:
         out.append(f"the family of {a} (through {b}) {end}")
     return out
 
-
-def _counts(steps: list[dict]) -> list[tuple[str, int]]:
-    out = {}
-    for s in steps:
-        out[s["status"]] = out.get(s["status"], 0) + 1
-    return list(out.items())
