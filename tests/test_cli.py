@@ -71,3 +71,27 @@ def test_perturbations_are_switched_on_after_the_unperturbed_chain(tmp_path, cap
     assert check["final_position_vs_solver_km"] < 1.0 and abs(check["final_a_error_km"]) < 0.05
     assert check["final_position_without_perturbations_km"] > 10.0
     assert "final_position_without_perturbations_km" not in verify.verify_ot(tmp_path / "ot.json")
+    # what each force contributes (spaceopt.studies.force_shares): the budget closes; the
+    # quadrature of the Moon's torque agrees with a trapezoid sum over the recorded samples
+    # (a smooth integrand: a check that each integral is wired to its own force)
+    import jax
+    import numpy as np
+    from scipy.integrate import trapezoid
+    from spaceopt import artifacts
+    from spaceopt.forces import acceleration_terms, build_model
+    from spaceopt.studies.force_shares import force_shares
+    fs = force_shares(tmp_path / "ot_perturbed.json")
+    assert fs["forces"] == ["thrust", "j2", "moon", "sun"] and fs["success"]
+    assert fs["closure_h"] < 1e-6 and fs["closure_E"] < 1e-6
+    assert sum(fs["h_share"].values()) == pytest.approx(1.0, abs=1e-6)
+    assert sum(fs["E_share"].values()) == pytest.approx(1.0, abs=1e-6)
+    assert abs(fs["h_share"]["thrust"] - 1.0) < 0.05 and abs(fs["E_share"]["thrust"] - 1.0) < 0.05
+    smp = artifacts.read_npz(tmp_path / "ot_perturbed.json")
+    model = build_model(pert["extra"]["perturbations"], pert["extra"]["epoch_utc"], tmp_path / "ephemeris.json")
+    t, r, v = smp["t_s"], smp["r_m"], smp["v_m_s"]
+    moon = np.asarray(jax.vmap(acceleration_terms, in_axes=(0, 0, None))(r, model.epoch + t, model)["moon"])
+    dh = np.cross(r[-1], v[-1]) - np.cross(r[0], v[0])
+    share = trapezoid(np.cross(r, moon), t, axis=0) @ dh / (dh @ dh)
+    assert share == pytest.approx(fs["h_share"]["moon"], rel=0.02) and abs(share) > 1e-6
+    with pytest.raises(ValueError, match="not a perturbed artifact"):
+        force_shares(tmp_path / "ot.json")

@@ -124,3 +124,21 @@ def test_a_date_listed_in_skip_dates_by_an_overlay_config_is_left_out_of_the_pla
     bad.write_text('perturbed:\n  e6:\n    skip_dates: ["2021-05-17"]\n')
     rc, out = smk("-n", "--cores", "1", "results/perturbed/e6_date_scan.csv", "--configfile", str(bad))
     assert rc != 0 and "error: perturbed.e6.skip_dates" in out and "Traceback" not in out, out[-2000:]
+
+
+def test_the_force_shares_are_planned_for_every_perturbed_solve_of_the_listed_cases():
+    """perturbed.force_shares: one re-propagation per solve with perturbations (no unperturbed
+    model, no case left out of the list), each from that solve's artifact, and the table on all."""
+    rc, out = smk("-n", "--forceall", "--cores", "2", "results/perturbed/force_shares.csv")
+    assert rc == 0, out[-2000:]
+    shares = planned_inputs(out, "perturbed_force_shares")
+    cases = PT["force_shares"]["cases"]
+    assert "e8" not in cases and {"e5", "e6"} <= set(cases)
+    expected = {f"results/perturbed/e6/{d}.shares.json" for d in P.scan_run_dates(PT)}
+    for c in set(cases) - {"e6"}:
+        expected |= {f"results/perturbed/{c}/{m}.shares.json" for m in PT["cases"][c]["models"] if PT["models"][m]}
+    assert set(shares) == expected and "results/perturbed/e5/unperturbed.shares.json" not in shares
+    for output, inputs in shares.items():
+        assert inputs[0] == output.replace(".shares.json", ".json")
+    table = planned_inputs(out, "perturbed_force_shares_table")
+    assert set(table["results/perturbed/force_shares.csv"]) >= expected

@@ -286,6 +286,46 @@ def pt_verify_files():
     return sorted({p.replace(".json", ".verify.json") for p in pt_stage_jsons().values()})
 
 
+# What each force contributes to the change of h and E along every perturbed solve of the listed
+# cases (spaceopt.studies.force_shares; perturbed.force_shares, null: off)
+FS_CASES = [c for c in (PT.get("force_shares") or {}).get("cases", []) if c in PT["run"]]
+
+
+def pt_force_share_files():
+    """The force shares of every solve of FS_CASES that has perturbations (the models the tables take)."""
+    perturbed = lambda m: bool(PT["models"][m])  # noqa: E731
+    out = []
+    for case in FS_CASES:
+        if case == "e6":
+            out += [f"{PTDIR}/e6/{d}.shares.json" for d in E6_DATES if perturbed(E6["model"])]
+        elif case == "e8":
+            out += [f"{PTDIR}/e8/{m}_n{_pt_fmt(n)}.shares.json" for m, n in e8_runs(PT) if perturbed(m)]
+        else:
+            out += [f"{PTDIR}/{case}/{m}.shares.json" for m in PT["cases"][case]["models"] if perturbed(m)]
+    return out
+
+
+FS_TABLE = [f"{PTDIR}/force_shares.csv"] if pt_force_share_files() else []
+
+
+rule perturbed_force_shares:
+    input: json=f"{PTDIR}/{{solve}}.json",
+           src=lib_sources("studies/force_shares", "studies/verify", "forces", "ephemeris", "frames")
+    output: f"{PTDIR}/{{solve}}.shares.json"
+    wildcard_constraints: solve=r"(e5|e6|e7|e8|e9)/[^/]+"
+    log: f"{PTDIR}/logs/shares_{{solve}}.log"
+    benchmark: f"{PTDIR}/benchmarks/shares_{{solve}}.tsv"
+    resources: mem_mb=2000, runtime=30
+    script: "../scripts/force_shares.py"
+
+
+rule perturbed_force_shares_table:
+    input: shares=pt_force_share_files(), _src=lib_sources("studies/force_shares")
+    output: f"{PTDIR}/force_shares.csv"
+    log: f"{PTDIR}/logs/force_shares.log"
+    script: "../scripts/force_shares_table.py"
+
+
 PT_TABLES = ["e5", "e6_date_scan", "e7", "e8", "e9"]
 
 rule perturbed_tables:
@@ -314,12 +354,14 @@ PT_FIGS = {"e5": ["fig_4_2_1_1", "fig_4_2_1_2", "fig_4_2_1_3"], "e6": ["fig_4_2_
 def pt_figure_names():
     """The figures of the cases in the run list; E9 draws one figure per model, for its first two."""
     n_e9 = min(2, len(PT["cases"]["e9"]["models"]))
-    return [f for c in PT["run"] for f in (PT_FIGS[c][:n_e9] if c == "e9" else PT_FIGS[c])]
+    return [f for c in PT["run"] for f in (PT_FIGS[c][:n_e9] if c == "e9" else PT_FIGS[c])] + (
+        ["fig_e6_force_shares"] if "e6" in FS_CASES and FS_TABLE else [])
 
 
 rule perturbed_figures:
     input: **pt_stage_jsons(), _src=lib_sources("studies/perturbed_figures", "studies/scan_families", "report/figures"),
-           _families=E6_FAMILIES, _walks=E6_WALKS_CSV, _envelope=E6_ENVELOPE
+           _families=E6_FAMILIES, _walks=E6_WALKS_CSV, _envelope=E6_ENVELOPE, _force_shares=FS_TABLE,
+           _src_fs=lib_sources("studies/force_shares")
     output: [f"{PTDIR}/figures/{f}.{ext}" for f in pt_figure_names() for ext in ("pdf", "png")]
     params: run=PT["run"], cases={c: {"models": PT["cases"][c]["models"]} for c in PT["cases"]},
             e6=E6, e8_n=E8["run_n_rev"], style=PT.get("figures", {})
@@ -333,9 +375,10 @@ rule perturbed_paper_section:
            verify=f"{PTDIR}/verification.csv", tof_maximum=f"{PTDIR}/tof_maximum.csv",
            budget=f"{PTDIR}/e9_budget.json",
            figures=[f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()],
-           families=E6_FAMILIES, walks=E6_WALKS_CSV, envelope=E6_ENVELOPE,
+           families=E6_FAMILIES, walks=E6_WALKS_CSV, envelope=E6_ENVELOPE, force_shares=FS_TABLE,
            **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},
-           _src=lib_sources("studies/perturbed_report", "studies/scan_families", "studies/scan_walks")
+           _src=lib_sources("studies/perturbed_report", "studies/scan_families", "studies/scan_walks",
+                            "studies/force_shares")
     output: f"{PTDIR}/paper_section.tex"
     params: run=PT["run"], results=RESULTS, e8_count_start=e8_count_start(PT), e8_smoothing=e8_smoothing(PT),
             e6_skipped=E6.get("skip_dates") or [], e8_skipped=e8_skipped(PT) if "e8" in PT["run"] else [],
@@ -346,4 +389,4 @@ rule perturbed_paper_section:
 
 ALL_TARGETS += [f"{PTDIR}/{t}.csv" for t in PT_TABLES] + [
     f"{PTDIR}/reproduction.csv", f"{PTDIR}/paper_section.tex", f"{PTDIR}/e9_budget.json"] + [
-    f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()] + E6_FAMILIES + E6_ENVELOPE
+    f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()] + E6_FAMILIES + E6_ENVELOPE + FS_TABLE

@@ -33,6 +33,11 @@ def main(sm):
         keys = sorted(k for k in payloads if k.startswith("e6_"))
         F.costates_vs_date([k[3:] for k in keys], [payloads[k]["scalars"]["costates"] for k in keys],
                            out / "fig_4_2_1_5", skipped=skipped)
+        shares = [r for r in (read_csv(sm.input._force_shares[0]) if sm.input._force_shares else [])
+                  if r["artifact"].startswith("e6/")]
+        if shares:
+            unp = R.summary_or_none(payloads, "e5_unperturbed")
+            F.force_shares_vs_date(shares, unp and unp["m_f_kg"], out / "fig_e6_force_shares")
     if "e7" in run:
         runs = {m: npz(f"e7_{m}") for m in cases["e7"]["models"] if f"e7_{m}" in stages}
         F.projections_3d(runs, "E7: GTO -> Molniya, 100 rev, 1 N (thick: burns)", out / "fig_4_2_1_6")

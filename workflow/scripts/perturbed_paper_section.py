@@ -8,6 +8,7 @@ from _step import run_step  # noqa: E402
 from spaceopt import artifacts  # noqa: E402
 from spaceopt.report.tables import read_csv as _read  # noqa: E402
 from spaceopt.studies import perturbed_report as R, scan_families as F, scan_walks as W  # noqa: E402
+from spaceopt.studies.force_shares import shares_sentence  # noqa: E402
 
 
 def main(sm):
@@ -27,7 +28,10 @@ def main(sm):
                                                   e8_steps=sm.params.e8_steps,
                                                   verify_rows=_read(sm.input.verify),
                                                   tof_rows=_read(sm.input.tof_maximum),
-                                                  e8_skipped=sm.params.e8_skipped, e6_families=families))
+                                                  e8_skipped=sm.params.e8_skipped, e6_families=families,
+                                                  force_shares=shares_sentence(_read(sm.input.force_shares[0]),
+                                                                               unp and unp["m_f_kg"])
+                                                  if sm.input.force_shares else ""))
 
 
 if __name__ == "__main__":

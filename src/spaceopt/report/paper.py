@@ -29,7 +29,7 @@ _LATEX_SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$",
                   "^": r"\textasciicircum{}", "<": r"\textless{}", ">": r"\textgreater{}"}
 _UNICODE = {"§": r"\S{}", "°": r"\ensuremath{^\circ}", "−": "-", "–": "--", "—": "---",
             "τ": r"\ensuremath{\tau}", "≤": r"\ensuremath{\le}", "≥": r"\ensuremath{\ge}",
-            "×": r"\ensuremath{\times}", "±": r"\ensuremath{\pm}", "µ": r"\ensuremath{\mu}",
+            "×": r"\ensuremath{\times}", "·": r"\ensuremath{\cdot}", "±": r"\ensuremath{\pm}", "µ": r"\ensuremath{\mu}",
             "μ": r"\ensuremath{\mu}", "Δ": r"\ensuremath{\Delta}", "…": r"\ldots{}",
             "’": "'", "“": "``", "”": "''"}
 

@@ -185,6 +185,37 @@ def _walk_lines(others: list, walks: list) -> list[list[dict]]:
     return lines
 
 
+def force_shares_vs_date(rows: list, unperturbed_m_f: float | None, path,
+                         title="E6: what each force contributes to the change of the orbit"):
+    """Each force's share of the change of angular momentum Δh against the departure day (left),
+    and the final mass against the Moon's share (right, with the least-squares line and the
+    unperturbed m_f). ``rows``: the E6 rows of ``force_shares.csv``
+    (:mod:`spaceopt.studies.force_shares`), artifact ``e6/<date>``."""
+    rows = sorted(rows, key=lambda r: r["artifact"])
+    days = [_day(r["artifact"].split("/")[-1]) for r in rows]
+    fig, axes = plt.subplots(1, 2, figsize=(11, 3.8))
+    for k, color in (("thrust", "k"), ("moon", "tab:gray"), ("sun", "tab:orange"), ("geopotential", "tab:green"),
+                     ("j2", "tab:green")):
+        if f"h_share_{k}" in rows[0]:
+            axes[0].plot(days, [100 * r[f"h_share_{k}"] for r in rows], "o-", ms=3, color=color, label=k)
+    axes[0].set_xlabel("departure day, May 2021 (12:00 UTC)"); axes[0].set_ylabel("share of Δh, %")
+    axes[0].legend(fontsize=8, frameon=False)
+    moon = np.array([100 * r["h_share_moon"] for r in rows])
+    m_f = np.array([r["m_f_kg"] for r in rows])
+    axes[1].plot(moon, m_f, "o", color="tab:red", ms=4, label="perturbed extremal of a date")
+    slope, icpt = np.polyfit(moon, m_f, 1)
+    xs = np.array([0.0, moon.max()])
+    axes[1].plot(xs, icpt + slope * xs, "-", color="tab:red", lw=0.8, label=f"least squares, {10 * slope:+.2f} kg per 10 %")
+    if unperturbed_m_f is not None:
+        axes[1].axhline(unperturbed_m_f, color="tab:blue", ls="--", label="unperturbed")
+    axes[1].set_xlabel("the Moon's share of Δh, %"); axes[1].set_ylabel("m_f, kg")
+    axes[1].legend(fontsize=8, frameon=False)
+    fig.suptitle(title)
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)
+
+
 def costates_vs_date(dates: list, costates: list, path, title="E6: initial costates vs departure date",
                      skipped=()):
     """Fig. 4.2.1.5: each initial costate against the departure day (gaps at ``skipped``)."""

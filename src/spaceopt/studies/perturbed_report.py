@@ -58,6 +58,8 @@ FIGURE_CAPTIONS = {
     "fig_4_2_2_5": "E8: propellant against the number of revolutions and the transfer time",
     "fig_4_2_3_1": "E9: controls and elements of the first force model",
     "fig_4_2_3_2": "E9: controls and elements of the second force model",
+    "fig_e6_force_shares": "E6: each force's share of the change of angular momentum against the departure "
+                           "date, and the final mass against the Moon's share (not in the dissertation)",
 }
 
 
@@ -435,7 +437,8 @@ def e8_route_text(count_start: str, smoothing: dict, steps: list) -> str:
 
 def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figures: list, *,
                   e8_count_start: str, smoothing: dict, e8_steps: list, verify_rows=(), tof_rows=(),
-                  e8_skipped=(), e6_families: str = "", resultsdir_macro=r"\resultsdir") -> str:
+                  e8_skipped=(), e6_families: str = "", force_shares: str = "",
+                  resultsdir_macro=r"\resultsdir") -> str:
     """LaTeX fragment of the §4.2 section; every number comes from the artifacts or the config.
     ``e8_count_start``, ``smoothing``, ``e8_steps``: how each E8 count and model starts
     (:func:`e8_route_text`); ``verify_rows``: the independent re-propagations
@@ -444,7 +447,9 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
     (``perturbed.e8.skip_n_rev``, :func:`spaceopt.studies.perturbed.e8_skipped`), named in the text;
     ``e6_families``: the scan's families and the envelope of the extremals found
     (:func:`spaceopt.studies.scan_families.families_sentence`,
-    :func:`spaceopt.studies.scan_walks.envelope_sentence`; plain text)."""
+    :func:`spaceopt.studies.scan_walks.envelope_sentence`; plain text); ``force_shares``: what each
+    force contributes to the change of the orbit (:func:`spaceopt.studies.force_shares.shares_sentence`;
+    plain text)."""
     n_pass = sum(r["status"] == "pass" for r in rows)
     n_fail = sum(r["status"] == "fail" for r in rows)
     n_miss = sum(r["status"] == "missing" for r in rows)
@@ -468,7 +473,8 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
              + f"Of the reproduction rows, {n_pass} pass, {n_fail} fail "
              f"and {n_miss} were not produced in this run (Table~\\ref{{tab:scoreboard}}). "
              + verification_sentence(list(verify_rows), "perturbed trajectories (its perturbing accelerations are "
-                                     "the solver's force model, evaluated at the re-propagated positions)"), ""]
+                                     "the solver's force model, evaluated at the re-propagated positions)")
+             + (" " + latex_escape(force_shares) if force_shares else ""), ""]
     if budget:
         g = budget["egm96_gm"]
         lines += [r"\subsection{LEO $\Delta\Omega$ budget}",
@@ -498,7 +504,8 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
         lines += [r"\begin{figure}[htbp]\centering",
                   r"\includegraphics[width=\linewidth,height=0.75\textheight,keepaspectratio]{"
                   + resultsdir_macro + "/perturbed/figures/" + stem + ".pdf}",
-                  r"\caption{" + latex_escape(FIGURE_CAPTIONS.get(stem, stem)) + " (dissertation "
-                  + latex_escape(stem.replace("fig_", "Fig. ").replace("_", ".")) + ").}",
+                  r"\caption{" + latex_escape(FIGURE_CAPTIONS.get(stem, stem))
+                  + (" (dissertation " + latex_escape(stem.replace("fig_", "Fig. ").replace("_", ".")) + ")"
+                     if stem[4:5].isdigit() else "") + ".}",
                   r"\end{figure}"]
     return "\n".join(lines) + "\n"

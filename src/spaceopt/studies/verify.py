@@ -30,33 +30,48 @@ from ..elements import cartesian_to_mee, mee_to_kepler
 from ..indirect.hamiltonians import C_SMOOTH
 
 
-def verify_ot(json_path, rtol=1e-11, atol_m=1e-3) -> dict:
-    data = artifacts.read_json(json_path)
-    smp = artifacts.read_npz(json_path)
+def recorded_control(data: dict, smp: dict):
+    """The recorded thrust history of an artifact, for a Cartesian re-propagation.
+
+    Returns (t_span [s], y0 = (r [m], v [m/s], m [kg]), thrust), with thrust(t, m) ->
+    (thrust acceleration δ(S(t)) T/m e(t) [m/s²], mass flow −δ T/c [kg/s]): e(t) and S(t) cubic
+    splines of the samples, δ the smoothed throttle (3.3.2) at ε_f.
+    """
     tr = data["transfer"]
-    mu, T, c = tr["mu"], data["thrust_N"], tr["isp"] * 9.80665
-    eps = tr["eps_final"]
+    T, c, eps = data["thrust_N"], tr["isp"] * 9.80665, tr["eps_final"]
     t = smp["t_s"]
     keep = np.concatenate([[True], np.diff(t) > 0])
     t = t[keep]
     S = CubicSpline(t, smp["S"][keep])
     e = CubicSpline(t, smp["direction"][keep])
 
+    def thrust(tt, m):
+        s = S(tt)
+        delta = 0.5 * (1.0 + s / math.sqrt(s * s + C_SMOOTH * eps * eps))
+        d = e(tt)
+        return delta * T / m * (d / np.linalg.norm(d)), -delta * T / c
+
+    y0 = np.concatenate([smp["r_m"][0], smp["v_m_s"][0], [smp["mass_kg"][0]]])
+    return (t[0], t[-1]), y0, thrust
+
+
+def verify_ot(json_path, rtol=1e-11, atol_m=1e-3) -> dict:
+    data = artifacts.read_json(json_path)
+    smp = artifacts.read_npz(json_path)
+    tr = data["transfer"]
+    mu = tr["mu"]
+    span, y0, thrust = recorded_control(data, smp)
     perturbing = _perturbing_acceleration(data)
 
     def propagate(a_p):
         def rhs(tt, y):
             r, v, m = y[:3], y[3:6], y[6]
-            s = S(tt)
-            delta = 0.5 * (1.0 + s / math.sqrt(s * s + C_SMOOTH * eps * eps))
-            d = e(tt)
-            d = d / np.linalg.norm(d)
-            acc = -mu * r / np.linalg.norm(r) ** 3 + delta * T / m * d + a_p(r, tt)
-            return np.concatenate([v, acc, [-delta * T / c]])
+            a_t, mdot = thrust(tt, m)
+            acc = -mu * r / np.linalg.norm(r) ** 3 + a_t + a_p(r, tt)
+            return np.concatenate([v, acc, [mdot]])
 
-        y0 = np.concatenate([smp["r_m"][0], smp["v_m_s"][0], [smp["mass_kg"][0]]])
         scale = np.concatenate([np.full(3, atol_m), np.full(3, atol_m * 1e-3), [1e-9]])
-        return solve_ivp(rhs, (t[0], t[-1]), y0, method="DOP853", rtol=rtol, atol=scale)
+        return solve_ivp(rhs, span, y0, method="DOP853", rtol=rtol, atol=scale)
 
     sol = propagate(perturbing)
     rf, vf, mf = sol.y[:3, -1], sol.y[3:6, -1], sol.y[6, -1]
