@@ -43,6 +43,9 @@ def test_the_sentence_gives_the_e6_ranges_and_how_the_final_mass_goes_with_the_m
     assert "e5/g44_moon_sun: the thrust 58.6 %, the geopotential 0.0 %, the Moon 21.4 %, the Sun 20.0 %." in text
     falling = S.shares_sentence([S.share_row(_payload(f"e6/2021-05-0{k}", 960.0 - k, 0.1 * k)) for k in (1, 2, 3)])
     assert "The final mass falls with the Moon's share" in falling and "unperturbed" not in falling
+    flat = _payload("e6/2021-05-01", 957.0, 0.1)              # ΔE below MIN_CHANGE: no E shares
+    flat["force_shares"]["E_share"] = dict.fromkeys(flat["force_shares"]["E_share"])
+    assert "of ΔE" not in S.shares_sentence([S.share_row(flat)]) and S.share_row(flat)["E_share_moon"] is None
     assert S.shares_sentence([]) == ""
     assert "E6" not in S.shares_sentence([other])
 

@@ -21,6 +21,10 @@ sums over the recorded samples: at 200 samples per revolution a trapezoid sum mi
 switches and the close lunar passes by up to 10 % of Δh. The closure of the budget
 (|Σ_j ∫ r × a_j dt − Δh| / |Δh|, and the same for E, with Δh and ΔE from the re-propagated end
 states) is reported as the check of the quadrature.
+
+A change below MIN_CHANGE of its initial value (|ΔE| of a LEO → LEO transfer at one semi-major
+axis, E9) has no meaningful shares: they are left empty (None), and its closure is taken relative
+to MIN_CHANGE·|E_0| instead.
 """
 from __future__ import annotations
 
@@ -32,6 +36,7 @@ from .verify import recorded_control
 
 # the forces of the budget, in the order of the table's columns; the thrust first
 FORCES = ("thrust", "j2", "geopotential", "moon", "sun")
+MIN_CHANGE = 1e-3
 NAMES = {"thrust": "the thrust", "j2": "J2", "geopotential": "the geopotential", "moon": "the Moon", "sun": "the Sun"}
 
 
@@ -70,13 +75,17 @@ def force_shares(json_path, rtol=1e-10, atol_m=1e-3) -> dict:
     dh = np.cross(yf[:3], yf[3:6]) - h0
     de = _energy(yf[:3], yf[3:6], mu) - e0
     quad = yf[7:].reshape(len(names), 4)
+    h_scale = max(float(np.linalg.norm(dh)), MIN_CHANGE * float(np.linalg.norm(h0)))
+    e_scale = max(abs(de), MIN_CHANGE * abs(e0))
+    h_shares = np.linalg.norm(dh) >= MIN_CHANGE * np.linalg.norm(h0)
+    e_shares = abs(de) >= MIN_CHANGE * abs(e0)
     return {"forces": names,
-            "h_share": {k: float(q[:3] @ dh / (dh @ dh)) for k, q in zip(names, quad)},
-            "E_share": {k: float(q[3] / de) for k, q in zip(names, quad)},
+            "h_share": {k: float(q[:3] @ dh / (dh @ dh)) if h_shares else None for k, q in zip(names, quad)},
+            "E_share": {k: float(q[3] / de) if e_shares else None for k, q in zip(names, quad)},
             "delta_h_m2_s": float(np.linalg.norm(dh)), "h0_m2_s": float(np.linalg.norm(h0)),
-            "delta_E_m2_s2": float(de),
-            "closure_h": float(np.linalg.norm(quad[:, :3].sum(axis=0) - dh) / np.linalg.norm(dh)),
-            "closure_E": float(abs(quad[:, 3].sum() - de) / abs(de)),
+            "delta_E_m2_s2": float(de), "E0_m2_s2": float(e0),
+            "closure_h": float(np.linalg.norm(quad[:, :3].sum(axis=0) - dh) / h_scale),
+            "closure_E": float(abs(quad[:, 3].sum() - de) / e_scale),
             "integrator": "scipy DOP853", "rtol": rtol, "nfev": int(sol.nfev), "success": bool(sol.success)}
 
 
@@ -121,10 +130,10 @@ def shares_sentence(rows: list[dict], unperturbed_m_f: float | None = None) -> s
         pct = lambda k: [100 * float(r[f"h_share_{k}"]) for r in e6 if r.get(f"h_share_{k}") not in (None, "")]  # noqa: E731
         ranges = ", ".join(f"{NAMES[k]} {min(v):.0f} to {max(v):.0f} %" if max(abs(x) for x in v) >= 0.5
                            else f"{NAMES[k]} less than 0.5 %" for k in FORCES[1:] if (v := pct(k)))
-        thrust_e = [100 * float(r["E_share_thrust"]) for r in e6]
+        thrust_e = [100 * float(r["E_share_thrust"]) for r in e6 if r.get("E_share_thrust") not in (None, "")]
         text += (f" Over the {len(e6)} E6 dates the thrust supplies {min(pct('thrust')):.0f} to "
-                 f"{max(pct('thrust')):.0f} % of Δh, {ranges}; the thrust supplies {min(thrust_e):.0f} to "
-                 f"{max(thrust_e):.0f} % of ΔE.")
+                 f"{max(pct('thrust')):.0f} % of Δh, {ranges}"
+                 + (f"; the thrust supplies {min(thrust_e):.0f} to {max(thrust_e):.0f} % of ΔE." if thrust_e else "."))
         if len(e6) >= 3:
             moon, m_f = np.array(pct("moon")), np.array([float(r["m_f_kg"]) for r in e6])
             slope, icpt = np.polyfit(moon, m_f, 1)
