@@ -82,6 +82,7 @@ def test_perturbations_are_switched_on_after_the_unperturbed_chain(tmp_path, cap
     from spaceopt.studies.force_shares import force_shares
     fs = force_shares(tmp_path / "ot_perturbed.json")
     assert fs["forces"] == ["thrust", "j2", "moon", "sun"] and fs["success"]
+    assert 3.3e5 < fs["moon_closest_km"] < 4.3e5 and 0 <= fs["moon_closest_days"] <= pert["scalars"]["tof_days"]
     assert fs["closure_h"] < 1e-6 and fs["closure_E"] < 1e-6
     assert sum(fs["h_share"].values()) == pytest.approx(1.0, abs=1e-6)
     assert sum(fs["E_share"].values()) == pytest.approx(1.0, abs=1e-6)

@@ -6,14 +6,15 @@ import pytest
 from spaceopt.studies import force_shares as S
 
 
-def _payload(artifact, m_f, moon, sun=0.2, closure=1e-8):
+def _payload(artifact, m_f, moon, sun=0.2, closure=1e-8, closest_km=1.0e5):
     thrust = 1.0 - moon - sun - 1e-4
     return {"artifact": artifact, "scalars": {"m_f_kg": m_f, "tof_days": 60.0},
             "force_shares": {"forces": ["thrust", "geopotential", "moon", "sun"],
                              "h_share": {"thrust": thrust, "geopotential": 1e-4, "moon": moon, "sun": sun},
                              "E_share": {"thrust": 1.02, "geopotential": 0.01, "moon": -0.04, "sun": 0.01},
                              "delta_h_m2_s": 2.0e10, "h0_m2_s": 1.0e10, "delta_E_m2_s2": -7.0e5,
-                             "closure_h": closure, "closure_E": 2 * closure}}
+                             "closure_h": closure, "closure_E": 2 * closure,
+                             "moon_closest_km": closest_km, "moon_closest_days": 20.0}}
 
 
 def test_a_row_carries_every_force_of_its_solve_in_the_table_order():
@@ -24,13 +25,14 @@ def test_a_row_carries_every_force_of_its_solve_in_the_table_order():
     assert rows[0]["delta_h_over_h0"] == 2.0 and rows[0]["h_share_moon"] == 0.1
     cols = S.share_columns(rows)
     assert cols[:5] == ["artifact", "m_f_kg", "tof_days", "delta_h_over_h0", "delta_E_m2_s2"]
-    assert cols[5:7] == ["h_share_thrust", "E_share_thrust"] and cols[-2:] == ["closure_h", "closure_E"]
+    assert cols[5:7] == ["h_share_thrust", "E_share_thrust"]
+    assert cols[-4:] == ["moon_closest_km", "moon_closest_days", "closure_h", "closure_E"]
     assert cols.index("h_share_geopotential") < cols.index("h_share_moon") < cols.index("h_share_sun")
     assert "h_share_j2" not in cols                       # no row has it
 
 
 def test_the_sentence_gives_the_e6_ranges_and_how_the_final_mass_goes_with_the_moons_share():
-    e6 = [S.share_row(_payload(f"e6/2021-05-0{k}", m, moon))
+    e6 = [S.share_row(_payload(f"e6/2021-05-0{k}", m, moon, closest_km=3e5 - 4e5 * moon))
           for k, (m, moon) in enumerate(((956.5, 0.1), (958.5, 0.3), (960.5, 0.5)), start=1)]
     other = S.share_row(_payload("e5/g44_moon_sun", 957.5, 0.214, closure=3e-8))
     text = S.shares_sentence(e6 + [other], unperturbed_m_f=956.13)
@@ -40,6 +42,7 @@ def test_the_sentence_gives_the_e6_ranges_and_how_the_final_mass_goes_with_the_m
     assert "the thrust supplies 102 to 102 % of ΔE" in text
     assert "The final mass rises with the Moon's share: correlation 1.00" in text
     assert "+1.00 kg per 10 % of Δh and 955.50 kg at no lunar share (unperturbed: 956.13 kg)" in text
+    assert "(closest approach 100,000 to 260,000 km): correlation -1.00." in text
     assert "e5/g44_moon_sun: the thrust 58.6 %, the geopotential 0.0 %, the Moon 21.4 %, the Sun 20.0 %." in text
     falling = S.shares_sentence([S.share_row(_payload(f"e6/2021-05-0{k}", 960.0 - k, 0.1 * k)) for k in (1, 2, 3)])
     assert "The final mass falls with the Moon's share" in falling and "unperturbed" not in falling

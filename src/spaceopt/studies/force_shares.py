@@ -32,6 +32,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from .. import artifacts
+from ..constants import DAY
 from .verify import recorded_control
 
 # the forces of the budget, in the order of the table's columns; the thrust first
@@ -86,7 +87,18 @@ def force_shares(json_path, rtol=1e-10, atol_m=1e-3) -> dict:
             "delta_E_m2_s2": float(de), "E0_m2_s2": float(e0),
             "closure_h": float(np.linalg.norm(quad[:, :3].sum(axis=0) - dh) / h_scale),
             "closure_E": float(abs(quad[:, 3].sum() - de) / e_scale),
-            "integrator": "scipy DOP853", "rtol": rtol, "nfev": int(sol.nfev), "success": bool(sol.success)}
+            "integrator": "scipy DOP853", "rtol": rtol, "nfev": int(sol.nfev), "success": bool(sol.success),
+            **(_closest_moon(sol, model) if "moon" in names else {})}
+
+
+def _closest_moon(sol, model) -> dict:
+    """The re-propagation's closest approach to the Moon, over its integration steps: distance
+    [km] and time after departure [d]."""
+    import jax
+    moon = np.asarray(jax.jit(jax.vmap(lambda t: model.eph.positions(t)[0]))(model.epoch + sol.t))
+    dist = np.linalg.norm(sol.y[:3].T - moon, axis=1)
+    k = int(np.argmin(dist))
+    return {"moon_closest_km": float(dist[k] / 1e3), "moon_closest_days": float((sol.t[k] - sol.t[0]) / DAY)}
 
 
 def _energy(r, v, mu) -> float:
@@ -95,20 +107,23 @@ def _energy(r, v, mu) -> float:
 
 def share_row(payload: dict) -> dict:
     """One table row of a ``*.shares.json`` payload: the artifact, its m_f and Δt, |Δh|/|h_0|,
-    ΔE, the share of Δh and of ΔE of each force of :data:`FORCES` it has, and both closures."""
+    ΔE, the share of Δh and of ΔE of each force of :data:`FORCES` it has, the closest approach to
+    the Moon (with the Moon in the model), and both closures."""
     res, sc = payload["force_shares"], payload["scalars"]
     row = {"artifact": payload["artifact"], "m_f_kg": sc["m_f_kg"], "tof_days": sc["tof_days"],
            "delta_h_over_h0": res["delta_h_m2_s"] / res["h0_m2_s"], "delta_E_m2_s2": res["delta_E_m2_s2"]}
     for k in res["forces"]:
         row[f"h_share_{k}"] = res["h_share"][k]
         row[f"E_share_{k}"] = res["E_share"][k]
-    return {**row, "closure_h": res["closure_h"], "closure_E": res["closure_E"]}
+    moon = {k: res[k] for k in ("moon_closest_km", "moon_closest_days") if k in res}
+    return {**row, **moon, "closure_h": res["closure_h"], "closure_E": res["closure_E"]}
 
 
 def share_columns(rows: list[dict]) -> list[str]:
     """The columns of the table: those of :func:`share_row` that any row has, forces in :data:`FORCES` order."""
     forces = [f"{q}_share_{k}" for k in FORCES for q in ("h", "E")]
-    cols = ["artifact", "m_f_kg", "tof_days", "delta_h_over_h0", "delta_E_m2_s2"] + forces + ["closure_h", "closure_E"]
+    cols = (["artifact", "m_f_kg", "tof_days", "delta_h_over_h0", "delta_E_m2_s2"] + forces
+            + ["moon_closest_km", "moon_closest_days", "closure_h", "closure_E"])
     return [c for c in cols if any(c in r for r in rows)]
 
 
@@ -116,7 +131,8 @@ def shares_sentence(rows: list[dict], unperturbed_m_f: float | None = None) -> s
     """Plain text for the paper: the budget's method and closure; over the E6 dates (artifacts
     ``e6/<date>``) the range of each force's share of Δh, the thrust's share of ΔE, and how m_f
     goes with the Moon's share (correlation, least-squares slope and its value at no lunar share,
-    beside the unperturbed ``unperturbed_m_f``); every other solve by its shares of Δh. '' without rows."""
+    beside the unperturbed ``unperturbed_m_f``) and the share with the closest approach to the Moon;
+    every other solve by its shares of Δh. '' without rows."""
     if not rows:
         return ""
     closure = max(max(float(r["closure_h"]), float(r["closure_E"])) for r in rows)
@@ -134,14 +150,19 @@ def shares_sentence(rows: list[dict], unperturbed_m_f: float | None = None) -> s
         text += (f" Over the {len(e6)} E6 dates the thrust supplies {min(pct('thrust')):.0f} to "
                  f"{max(pct('thrust')):.0f} % of Δh, {ranges}"
                  + (f"; the thrust supplies {min(thrust_e):.0f} to {max(thrust_e):.0f} % of ΔE." if thrust_e else "."))
-        if len(e6) >= 3:
-            moon, m_f = np.array(pct("moon")), np.array([float(r["m_f_kg"]) for r in e6])
+        moon, m_f = np.array(pct("moon")), np.array([float(r["m_f_kg"]) for r in e6])
+        if len(e6) >= 3 and len(moon) == len(e6) and np.ptp(moon) > 0:
             slope, icpt = np.polyfit(moon, m_f, 1)
             text += (f" The final mass {'rises' if slope > 0 else 'falls'} with the Moon's share: correlation "
                      f"{np.corrcoef(moon, m_f)[0, 1]:.2f}; "
                      f"a least-squares line gives {10 * slope:+.2f} kg per 10 % of Δh and {icpt:.2f} kg at no "
                      "lunar share" + (f" (unperturbed: {unperturbed_m_f:.2f} kg)." if unperturbed_m_f is not None
                                       else "."))
+            closest = np.array([float(r["moon_closest_km"]) for r in e6 if r.get("moon_closest_km") not in (None, "")])
+            if len(closest) == len(moon) and np.ptp(closest) > 0:
+                text += (f" The Moon's share goes with how closely the transfer passes the Moon (closest approach "
+                         f"{closest.min():,.0f} to {closest.max():,.0f} km): correlation "
+                         f"{np.corrcoef(closest, moon)[0, 1]:.2f}.")
     others = [r for r in rows if r not in e6]
     if others:
         text += " Shares of Δh elsewhere: " + "; ".join(
