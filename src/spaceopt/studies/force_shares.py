@@ -166,7 +166,7 @@ def shares_sentence(rows: list[dict], unperturbed_m_f: float | None = None) -> s
     others = [r for r in rows if r not in e6]
     if others:
         text += " Shares of Δh elsewhere: " + "; ".join(
-            f"{r['artifact']}: " + ", ".join(f"{NAMES[k]} {100 * float(r[f'h_share_{k}']):.1f} %" for k in FORCES
+            f"{str(r['artifact']).removesuffix('.json')}: " + ", ".join(f"{NAMES[k]} {100 * float(r[f'h_share_{k}']):.1f} %" for k in FORCES
                                               if r.get(f"h_share_{k}") not in (None, ""))
             for r in others) + "."
     return text
