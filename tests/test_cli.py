@@ -87,6 +87,10 @@ def test_perturbations_are_switched_on_after_the_unperturbed_chain(tmp_path, cap
     assert sum(fs["h_share"].values()) == pytest.approx(1.0, abs=1e-6)
     assert sum(fs["E_share"].values()) == pytest.approx(1.0, abs=1e-6)
     assert abs(fs["h_share"]["thrust"] - 1.0) < 0.05 and abs(fs["E_share"]["thrust"] - 1.0) < 0.05
+    revs = fs["revolutions"]                          # one per revolution of L, adding up to the totals
+    assert len(revs) == 2 and revs[0]["start_days"] == 0 and revs[-1]["end_days"] == pytest.approx(pert["scalars"]["tof_days"])
+    for k in fs["forces"]:
+        assert sum(r["h_share"][k] for r in revs) == pytest.approx(fs["h_share"][k], rel=1e-9, abs=1e-12)
     smp = artifacts.read_npz(tmp_path / "ot_perturbed.json")
     model = build_model(pert["extra"]["perturbations"], pert["extra"]["epoch_utc"], tmp_path / "ephemeris.json")
     t, r, v = smp["t_s"], smp["r_m"], smp["v_m_s"]

@@ -14,7 +14,11 @@ def _payload(artifact, m_f, moon, sun=0.2, closure=1e-8, closest_km=1.0e5):
                              "E_share": {"thrust": 1.02, "geopotential": 0.01, "moon": -0.04, "sun": 0.01},
                              "delta_h_m2_s": 2.0e10, "h0_m2_s": 1.0e10, "delta_E_m2_s2": -7.0e5,
                              "closure_h": closure, "closure_E": 2 * closure,
-                             "moon_closest_km": closest_km, "moon_closest_days": 20.0}}
+                             "moon_closest_km": closest_km, "moon_closest_days": 20.0,
+                             "revolutions": [{"start_days": 0.0, "end_days": 25.0,
+                                              "h_share": {"thrust": thrust - 0.1, "moon": 0.8 * moon}},
+                                             {"start_days": 25.0, "end_days": 60.0,
+                                              "h_share": {"thrust": 0.1, "moon": 0.2 * moon}}]}}
 
 
 def test_a_row_carries_every_force_of_its_solve_in_the_table_order():
@@ -44,6 +48,15 @@ def test_the_sentence_gives_the_e6_ranges_and_how_the_final_mass_goes_with_the_m
     assert "+1.00 kg per 10 % of Δh and 955.50 kg at no lunar share (unperturbed: 956.13 kg)" in text
     assert "(closest approach 100,000 to 260,000 km): correlation -1.00." in text
     assert "e5/g44_moon_sun: the thrust 58.6 %, the geopotential 0.0 %, the Moon 21.4 %, the Sun 20.0 %." in text
+    assert "gathered mostly in one revolution" not in text          # without the table by revolution
+    revs = [r for p in (_payload("e6/2021-05-03.json", 960.5, 0.5),) for r in S.revolution_rows(p)]
+    assert [r["revolution"] for r in revs] == [1, 2] and revs[0]["h_share_moon"] == pytest.approx(0.4)
+    assert S.revolution_columns(revs) == ["artifact", "revolution", "start_days", "end_days", "h_share_thrust",
+                                          "h_share_moon"]
+    e6[2]["artifact"] = "e6/2021-05-03.json"
+    with_revs = S.shares_sentence(e6, revolutions=revs)
+    assert ("It is gathered mostly in one revolution: at 2021-05-03, 40 of its 50 % in revolution 1 of 2 "
+            "(days 0.0 to 25.0;") in with_revs
     falling = S.shares_sentence([S.share_row(_payload(f"e6/2021-05-0{k}", 960.0 - k, 0.1 * k)) for k in (1, 2, 3)])
     assert "The final mass falls with the Moon's share" in falling and "unperturbed" not in falling
     flat = _payload("e6/2021-05-01", 957.0, 0.1)              # ΔE below MIN_CHANGE: no E shares

@@ -306,6 +306,7 @@ def pt_force_share_files():
 
 
 FS_TABLE = [f"{PTDIR}/force_shares.csv"] if pt_force_share_files() else []
+FS_BY_REVOLUTION = [f"{PTDIR}/force_shares_by_revolution.csv"] if FS_TABLE else []
 
 
 rule perturbed_force_shares:
@@ -321,7 +322,7 @@ rule perturbed_force_shares:
 
 rule perturbed_force_shares_table:
     input: shares=pt_force_share_files(), _src=lib_sources("studies/force_shares")
-    output: f"{PTDIR}/force_shares.csv"
+    output: table=f"{PTDIR}/force_shares.csv", by_revolution=f"{PTDIR}/force_shares_by_revolution.csv"
     log: f"{PTDIR}/logs/force_shares.log"
     script: "../scripts/force_shares_table.py"
 
@@ -376,7 +377,7 @@ rule perturbed_paper_section:
            budget=f"{PTDIR}/e9_budget.json",
            figures=[f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()],
            families=E6_FAMILIES, walks=E6_WALKS_CSV, envelope=E6_ENVELOPE, force_shares=FS_TABLE,
-           **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},
+           force_shares_by_revolution=FS_BY_REVOLUTION, **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},
            _src=lib_sources("studies/perturbed_report", "studies/scan_families", "studies/scan_walks",
                             "studies/force_shares")
     output: f"{PTDIR}/paper_section.tex"
@@ -389,4 +390,4 @@ rule perturbed_paper_section:
 
 ALL_TARGETS += [f"{PTDIR}/{t}.csv" for t in PT_TABLES] + [
     f"{PTDIR}/reproduction.csv", f"{PTDIR}/paper_section.tex", f"{PTDIR}/e9_budget.json"] + [
-    f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()] + E6_FAMILIES + E6_ENVELOPE + FS_TABLE
+    f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()] + E6_FAMILIES + E6_ENVELOPE + FS_TABLE + FS_BY_REVOLUTION

@@ -29,8 +29,9 @@ def main(sm):
                                                   verify_rows=_read(sm.input.verify),
                                                   tof_rows=_read(sm.input.tof_maximum),
                                                   e8_skipped=sm.params.e8_skipped, e6_families=families,
-                                                  force_shares=shares_sentence(_read(sm.input.force_shares[0]),
-                                                                               unp and unp["m_f_kg"])
+                                                  force_shares=shares_sentence(
+                                                      _read(sm.input.force_shares[0]), unp and unp["m_f_kg"],
+                                                      _read(sm.input.force_shares_by_revolution[0]))
                                                   if sm.input.force_shares else ""))
 
 

@@ -28,11 +28,14 @@ to MIN_CHANGE·|E_0| instead.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.integrate import solve_ivp
 
 from .. import artifacts
 from ..constants import DAY
+from ..elements import cartesian_to_mee
 from .verify import recorded_control
 
 # the forces of the budget, in the order of the table's columns; the thrust first
@@ -70,8 +73,15 @@ def force_shares(json_path, rtol=1e-10, atol_m=1e-3) -> dict:
     e0 = _energy(y0[:3], y0[3:6], mu)
     quad_tol = np.tile(np.concatenate([np.full(3, 1e-9 * np.linalg.norm(h0)), [1e-9 * abs(e0)]]), len(names))
     atol = np.concatenate([np.full(3, atol_m), np.full(3, atol_m * 1e-3), [1e-9], quad_tol])
+    mee = jax.jit(cartesian_to_mee)
+    L0 = math.radians(data["transfer"]["L0_deg"])
+
+    def new_revolution(tt, y):                         # L = L0 + 2πk, L increasing
+        return math.sin(float(mee(y[:3], y[3:6], mu)[5]) - L0)
+    new_revolution.direction = 1.0
+
     sol = solve_ivp(rhs, span, np.concatenate([y0, np.zeros(4 * len(names))]), method="DOP853",
-                    rtol=rtol, atol=atol)
+                    rtol=rtol, atol=atol, events=new_revolution)
     yf = sol.y[:, -1]
     dh = np.cross(yf[:3], yf[3:6]) - h0
     de = _energy(yf[:3], yf[3:6], mu) - e0
@@ -88,7 +98,24 @@ def force_shares(json_path, rtol=1e-10, atol_m=1e-3) -> dict:
             "closure_h": float(np.linalg.norm(quad[:, :3].sum(axis=0) - dh) / h_scale),
             "closure_E": float(abs(quad[:, 3].sum() - de) / e_scale),
             "integrator": "scipy DOP853", "rtol": rtol, "nfev": int(sol.nfev), "success": bool(sol.success),
+            "revolutions": _by_revolution(sol, names, dh) if h_shares else [],
             **(_closest_moon(sol, model) if "moon" in names else {})}
+
+
+def _by_revolution(sol, names: list, dh) -> list[dict]:
+    """Each force's share of Δh gathered in each revolution of the true longitude (from L0 + 2πk
+    to L0 + 2π(k+1), the last one partial): the quadrature states at the event crossings."""
+    times = np.concatenate([[sol.t[0]], sol.t_events[0], [sol.t[-1]]])
+    states = np.vstack([sol.y[:, 0], sol.y_events[0].reshape(-1, sol.y.shape[0]), sol.y[:, -1]])
+    keep = np.concatenate([[True], np.diff(times) > 1e-9 * (times[-1] - times[0])])
+    keep[-1] = True
+    times, states = times[keep], states[keep]
+    if len(times) > 2 and times[-2] >= times[-1] - 1e-9 * (times[-1] - times[0]):
+        times, states = np.delete(times, -2), np.delete(states, -2, axis=0)
+    quad = states[:, 7:].reshape(len(times), len(names), 4)[:, :, :3] @ dh / (dh @ dh)
+    return [{"start_days": float((a - times[0]) / DAY), "end_days": float((b - times[0]) / DAY),
+             "h_share": {k: float(x) for k, x in zip(names, q1 - q0)}}
+            for a, b, q0, q1 in zip(times, times[1:], quad, quad[1:])]
 
 
 def _closest_moon(sol, model) -> dict:
@@ -127,12 +154,27 @@ def share_columns(rows: list[dict]) -> list[str]:
     return [c for c in cols if any(c in r for r in rows)]
 
 
-def shares_sentence(rows: list[dict], unperturbed_m_f: float | None = None) -> str:
+def revolution_rows(payload: dict) -> list[dict]:
+    """The table by revolution of a ``*.shares.json`` payload: per revolution of the true
+    longitude (1-based), its start and end [d after departure] and each force's share of Δh gathered in it."""
+    return [{"artifact": payload["artifact"], "revolution": k, "start_days": rev["start_days"],
+             "end_days": rev["end_days"], **{f"h_share_{f}": x for f, x in rev["h_share"].items()}}
+            for k, rev in enumerate(payload["force_shares"].get("revolutions", []), start=1)]
+
+
+def revolution_columns(rows: list[dict]) -> list[str]:
+    cols = ["artifact", "revolution", "start_days", "end_days"] + [f"h_share_{k}" for k in FORCES]
+    return [c for c in cols if any(c in r for r in rows)]
+
+
+def shares_sentence(rows: list[dict], unperturbed_m_f: float | None = None, revolutions=()) -> str:
     """Plain text for the paper: the budget's method and closure; over the E6 dates (artifacts
     ``e6/<date>``) the range of each force's share of Δh, the thrust's share of ΔE, and how m_f
     goes with the Moon's share (correlation, least-squares slope and its value at no lunar share,
-    beside the unperturbed ``unperturbed_m_f``) and the share with the closest approach to the Moon;
-    every other solve by its shares of Δh. '' without rows."""
+    beside the unperturbed ``unperturbed_m_f``), the share with the closest approach to the Moon,
+    and (with ``revolutions``, the rows of :func:`revolution_rows`) the revolution in which the
+    date of the largest share gathers the most of it; every other solve by its shares of Δh.
+    '' without rows."""
     if not rows:
         return ""
     closure = max(max(float(r["closure_h"]), float(r["closure_E"])) for r in rows)
@@ -163,6 +205,14 @@ def shares_sentence(rows: list[dict], unperturbed_m_f: float | None = None) -> s
                 text += (f" The Moon's share goes with how closely the transfer passes the Moon (closest approach "
                          f"{closest.min():,.0f} to {closest.max():,.0f} km): correlation "
                          f"{np.corrcoef(closest, moon)[0, 1]:.2f}.")
+            top = e6[int(np.argmax(moon))]
+            revs = [r for r in revolutions if r["artifact"] == top["artifact"] and r.get("h_share_moon") not in (None, "")]
+            if revs:
+                best = max(revs, key=lambda r: float(r["h_share_moon"]))
+                text += (f" It is gathered mostly in one revolution: at {_date(top['artifact'])}, "
+                         f"{100 * float(best['h_share_moon']):.0f} of its {max(moon):.0f} % in revolution "
+                         f"{int(best['revolution'])} of {len(revs)} (days {float(best['start_days']):.1f} to "
+                         f"{float(best['end_days']):.1f}; results/perturbed/force_shares_by_revolution.csv).")
     others = [r for r in rows if r not in e6]
     if others:
         text += " Shares of Δh elsewhere: " + "; ".join(
@@ -170,3 +220,7 @@ def shares_sentence(rows: list[dict], unperturbed_m_f: float | None = None) -> s
                                               if r.get(f"h_share_{k}") not in (None, ""))
             for r in others) + "."
     return text
+
+
+def _date(artifact) -> str:
+    return str(artifact).split("/")[-1].removesuffix(".json")
