@@ -104,16 +104,16 @@ def force_shares(json_path, rtol=1e-10, atol_m=1e-3) -> dict:
 
 def _by_revolution(sol, names: list, dh) -> list[dict]:
     """Each force's share of Δh gathered in each revolution of the true longitude (from L0 + 2πk
-    to L0 + 2π(k+1), the last one partial): the quadrature states at the event crossings."""
-    times = np.concatenate([[sol.t[0]], sol.t_events[0], [sol.t[-1]]])
-    states = np.vstack([sol.y[:, 0], sol.y_events[0].reshape(-1, sol.y.shape[0]), sol.y[:, -1]])
-    keep = np.concatenate([[True], np.diff(times) > 1e-9 * (times[-1] - times[0])])
-    keep[-1] = True
-    times, states = times[keep], states[keep]
-    if len(times) > 2 and times[-2] >= times[-1] - 1e-9 * (times[-1] - times[0]):
-        times, states = np.delete(times, -2), np.delete(states, -2, axis=0)
+    to L0 + 2π(k+1), the last one partial): the quadrature states at the event crossings. A
+    crossing within 1e-4 of the span of either end (the re-propagation reaches L_f a little
+    before or after t_f) is not a boundary."""
+    t0, tf = sol.t[0], sol.t[-1]
+    tol = 1e-4 * (tf - t0)
+    inner = (sol.t_events[0] > t0 + tol) & (sol.t_events[0] < tf - tol)
+    times = np.concatenate([[t0], sol.t_events[0][inner], [tf]])
+    states = np.vstack([sol.y[:, 0], sol.y_events[0].reshape(-1, sol.y.shape[0])[inner], sol.y[:, -1]])
     quad = states[:, 7:].reshape(len(times), len(names), 4)[:, :, :3] @ dh / (dh @ dh)
-    return [{"start_days": float((a - times[0]) / DAY), "end_days": float((b - times[0]) / DAY),
+    return [{"start_days": float((a - t0) / DAY), "end_days": float((b - t0) / DAY),
              "h_share": {k: float(x) for k, x in zip(names, q1 - q0)}}
             for a, b, q0, q1 in zip(times, times[1:], quad, quad[1:])]
 
