@@ -71,8 +71,8 @@ def test_the_e6_figure_draws_the_shares_by_date_and_the_mass_against_the_moons_s
     drawn = []
     monkeypatch.setattr(F, "save_figure", lambda fig, path: drawn.append(
         [[(ln.get_label(), list(ln.get_xdata()), list(ln.get_ydata())) for ln in ax.lines] for ax in fig.axes]))
-    rows = [S.share_row(_payload(f"e6/2021-05-{d:02d}", m, moon))
-            for d, m, moon in ((12, 960.5, 0.5), (2, 956.5, 0.1))]          # unsorted: drawn by date
+    rows = [{**S.share_row(_payload(f"e6/2021-05-{d:02d}", m, moon)), "h_share_j2": ""}   # as read from
+            for d, m, moon in ((12, 960.5, 0.5), (2, 956.5, 0.1))]          # the CSV; unsorted: drawn by date
     F.force_shares_vs_date(rows, 956.13, tmp_path / "fs")
     left, right = drawn[0]
     moon = next(ln for ln in left if ln[0] == "moon")

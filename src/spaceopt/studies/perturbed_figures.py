@@ -196,7 +196,7 @@ def force_shares_vs_date(rows: list, unperturbed_m_f: float | None, path,
     fig, axes = plt.subplots(1, 2, figsize=(11, 3.8))
     for k, color in (("thrust", "k"), ("moon", "tab:gray"), ("sun", "tab:orange"), ("geopotential", "tab:green"),
                      ("j2", "tab:green")):
-        if f"h_share_{k}" in rows[0]:
+        if all(r.get(f"h_share_{k}") not in (None, "") for r in rows):      # a force of these solves
             axes[0].plot(days, [100 * r[f"h_share_{k}"] for r in rows], "o-", ms=3, color=color, label=k)
     axes[0].set_xlabel("departure day, May 2021 (12:00 UTC)"); axes[0].set_ylabel("share of Δh, %")
     axes[0].legend(fontsize=8, frameon=False)
