@@ -47,7 +47,12 @@ def test_the_sentence_gives_the_e6_ranges_and_how_the_final_mass_goes_with_the_m
     assert "The final mass rises with the Moon's share: correlation 1.00" in text
     assert "+1.00 kg per 10 % of Δh and 955.50 kg at no lunar share (unperturbed: 956.13 kg)" in text
     assert "(closest approach 100,000 to 260,000 km): correlation -1.00." in text
-    assert "e5/g44_moon_sun: the thrust 58.6 %, the geopotential 0.0 %, the Moon 21.4 %, the Sun 20.0 %." in text
+    assert ("Elsewhere (share of Δh; of ΔE, the thrust's): e5/g44_moon_sun: the thrust 58.6 %, the geopotential "
+            "0.0 %, the Moon 21.4 %, the Sun 20.0 %; 102.0 % of ΔE.") in text
+    e8 = [S.share_row(_payload(f"e8/g44_moon_sun_n{n}.json", 150.0, moon)) for n, moon in ((200, 0.001), (500, 0.002))]
+    e8[1]["E_share_thrust"] = 1.008
+    assert ("e8/g44_moon_sun (2 counts): the thrust 79.8 to 79.9 %, the geopotential 0.0 %, the Moon 0.1 to 0.2 %, "
+            "the Sun 20.0 %; 100.8 to 102.0 % of ΔE.") in S.shares_sentence(e8)
     assert "gathered mostly in one revolution" not in text          # without the table by revolution
     revs = [r for p in (_payload("e6/2021-05-03.json", 960.5, 0.5),) for r in S.revolution_rows(p)]
     assert [r["revolution"] for r in revs] == [1, 2] and revs[0]["h_share_moon"] == pytest.approx(0.4)

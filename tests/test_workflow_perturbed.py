@@ -133,9 +133,11 @@ def test_the_force_shares_are_planned_for_every_perturbed_solve_of_the_listed_ca
     assert rc == 0, out[-2000:]
     shares = planned_inputs(out, "perturbed_force_shares")
     cases = PT["force_shares"]["cases"]
-    assert "e8" not in cases and {"e5", "e6"} <= set(cases)
+    assert {"e5", "e6", "e8"} <= set(cases)
     expected = {f"results/perturbed/e6/{d}.shares.json" for d in P.scan_run_dates(PT)}
-    for c in set(cases) - {"e6"}:
+    expected |= {f"results/perturbed/e8/{m}_n{n:g}.shares.json" for m, n in P.e8_runs(PT) if PT["models"][m]}
+    assert "results/perturbed/e8/g44_moon_sun_n500.shares.json" in expected
+    for c in set(cases) - {"e6", "e8"}:
         expected |= {f"results/perturbed/{c}/{m}.shares.json" for m in PT["cases"][c]["models"] if PT["models"][m]}
     assert set(shares) == expected and "results/perturbed/e5/unperturbed.shares.json" not in shares
     for output, inputs in shares.items():

@@ -33,6 +33,7 @@ to MIN_CHANGE·|E_0| instead.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -178,8 +179,8 @@ def shares_sentence(rows: list[dict], unperturbed_m_f: float | None = None, revo
     goes with the Moon's share (correlation, least-squares slope and its value at no lunar share,
     beside the unperturbed ``unperturbed_m_f``), the share with the closest approach to the Moon,
     and (with ``revolutions``, the rows of :func:`revolution_rows`) the revolution in which the
-    date of the largest share gathers the most of it; every other solve by its shares of Δh.
-    '' without rows."""
+    date of the largest share gathers the most of it; every other solve by its shares of Δh and
+    the thrust's of ΔE, the counts of one E8 model as ranges. '' without rows."""
     if not rows:
         return ""
     closure = max(max(float(r["closure_h"]), float(r["closure_E"])) for r in rows)
@@ -218,14 +219,29 @@ def shares_sentence(rows: list[dict], unperturbed_m_f: float | None = None, revo
                          f"{100 * float(best['h_share_moon']):.0f} of its {max(moon):.0f} % in revolution "
                          f"{int(best['revolution'])} of {len(revs)} (days {float(best['start_days']):.1f} to "
                          f"{float(best['end_days']):.1f}; results/perturbed/force_shares_by_revolution.csv).")
-    others = [r for r in rows if r not in e6]
-    if others:
-        text += " Shares of Δh elsewhere: " + "; ".join(
-            f"{str(r['artifact']).removesuffix('.json')}: " + ", ".join(f"{NAMES[k]} {100 * float(r[f'h_share_{k}']):.1f} %" for k in FORCES
-                                              if r.get(f"h_share_{k}") not in (None, ""))
-            for r in others) + "."
+    groups = {}
+    for r in rows:
+        if r not in e6:              # E8's counts of one model together
+            groups.setdefault(re.sub(r"_n[0-9.]+$", "", _name(r["artifact"])), []).append(r)
+    if groups:
+        text += " Elsewhere (share of Δh; of ΔE, the thrust's): " + "; ".join(
+            f"{name}" + (f" ({len(g)} counts)" if len(g) > 1 else "") + ": "
+            + ", ".join(f"{NAMES[k]} {_pct_range(g, f'h_share_{k}')}" for k in FORCES
+                        if all(r.get(f"h_share_{k}") not in (None, "") for r in g))
+            + (f"; {_pct_range(g, 'E_share_thrust')} of ΔE"
+               if all(r.get("E_share_thrust") not in (None, "") for r in g) else "")
+            for name, g in groups.items()) + "."
     return text
 
 
+def _name(artifact) -> str:
+    return str(artifact).removesuffix(".json")
+
+
 def _date(artifact) -> str:
-    return str(artifact).split("/")[-1].removesuffix(".json")
+    return _name(artifact).split("/")[-1]
+
+
+def _pct_range(rows: list, key: str) -> str:
+    lo, hi = (f"{100 * f(float(r[key]) for r in rows):.1f}" for f in (min, max))
+    return f"{lo} %" if lo == hi else f"{lo} to {hi} %"
