@@ -78,7 +78,7 @@ def test_the_e6_figure_draws_the_shares_by_date_and_the_mass_against_the_moons_s
         [[(ln.get_label(), list(ln.get_xdata()), list(ln.get_ydata())) for ln in ax.lines] for ax in fig.axes]))
     rows = [{**S.share_row(_payload(f"e6/2021-05-{d:02d}", m, moon)), "h_share_j2": ""}   # as read from
             for d, m, moon in ((12, 960.5, 0.5), (2, 956.5, 0.1))]          # the CSV; unsorted: drawn by date
-    F.force_shares_vs_date(rows, 956.13, tmp_path / "fs")
+    F.force_shares_vs_date(rows, 956.13, tmp_path / "fs", heavier=[{"h_share_moon": 0.55, "m_f_kg": 961.0}])
     left, right = drawn[0]
     moon = next(ln for ln in left if ln[0] == "moon")
     assert moon[1:] == ([2, 12], [pytest.approx(10.0), pytest.approx(50.0)])
@@ -88,6 +88,7 @@ def test_the_e6_figure_draws_the_shares_by_date_and_the_mass_against_the_moons_s
     fit = next(ln for ln in right if ln[0].startswith("least squares"))
     assert fit[0] == "least squares, +1.00 kg per 10 %" and fit[2][0] == pytest.approx(955.5)
     assert any(ln[2] == [956.13, 956.13] for ln in right)          # the unperturbed line
+    assert next(ln for ln in right if ln[0] == "another family's heavier extremal")[1:] == ([pytest.approx(55.0)], [961.0])
 
 
 def test_a_figure_not_in_the_dissertation_is_not_captioned_as_one():

@@ -178,3 +178,33 @@ def test_the_walk_job_resumes_from_its_recorded_steps_and_removes_them_when_done
     sm_flat, out_flat = _job(tmp_path / "flat", "same")
     script.main(sm_flat)
     assert artifacts.read_json(out_flat)["walk"]["steps"] == []
+
+
+def test_the_heavier_extremals_of_the_envelope_get_their_unknowns_from_the_link_or_step_that_found_them():
+    """scan_walks.heavier_extremals: each envelope date whose heaviest extremal is another family's
+    (gain above the tolerance), with the z of the link or walk step of that date and m_f."""
+    envelope = [{"date": "2021-05-02", "m_f_kg": 959.5, "gain_kg": 2.5, "family_of": "2021-05-01"},
+                {"date": "2021-05-03", "m_f_kg": 958.2, "gain_kg": 2.2, "family_of": "2021-05-01"},
+                {"date": "2021-05-04", "m_f_kg": 958.0, "gain_kg": 0.0, "family_of": "2021-05-04"},
+                {"date": "2021-05-05", "m_f_kg": 957.0, "gain_kg": 5e-6, "family_of": "2021-05-06"}]
+    links = [{"to_date": "2021-05-02", "m_f_kg": 959.5, "z": [1.0]}, {"to_date": "2021-05-03", "m_f_kg": 958.0, "z": [9.0]},
+             {"to_date": "2021-05-07", "status": "failed", "m_f_kg": None}]
+    steps = [{"date": "2021-05-03", "m_f_kg": 958.2, "z": [2.0]}, {"date": "2021-05-04", "status": "failed"}]
+    found = W.heavier_extremals(envelope, links, steps, 1e-5)
+    assert [(row["date"], z) for row, z in found] == [("2021-05-02", [1.0]), ("2021-05-03", [2.0])]
+    with pytest.raises(ValueError, match="no link or walk step holds the extremal of 2021-05-03"):
+        W.heavier_extremals(envelope, links, steps[1:], 1e-5)
+
+
+def test_the_heavier_extremals_sentence_gives_their_verification_and_their_lunar_share():
+    rows = [{"final_position_vs_solver_km": 894.0, "final_mass_error_kg": -7.1e-3, "h_share_moon": 0.47,
+             "moon_closest_km": 76736.0},
+            {"final_position_vs_solver_km": 0.26, "final_mass_error_kg": 1e-4, "h_share_moon": 0.634,
+             "moon_closest_km": 66831.0}]
+    text = W.heavier_sentence(rows)
+    assert text.startswith("The 2 heavier extremals of other families")
+    assert "to within 894 km of the solver's end point and 0.0071 kg of its final mass" in text
+    assert "they take 47 to 63 % of the change of angular momentum from the Moon and pass it at 66,831 to 76,736 km." in text
+    assert W.heavier_sentence([]) == ""
+    no_moon = W.heavier_sentence([{k: v for k, v in rows[0].items() if "moon" not in k}])
+    assert "Moon" not in no_moon and no_moon.endswith("final mass.")

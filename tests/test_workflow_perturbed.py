@@ -144,3 +144,17 @@ def test_the_force_shares_are_planned_for_every_perturbed_solve_of_the_listed_ca
         assert inputs[0] == output.replace(".shares.json", ".json")
     table = planned_inputs(out, "perturbed_force_shares_table")
     assert set(table["results/perturbed/force_shares.csv"]) >= expected
+
+
+def test_the_heavier_extremals_of_the_envelope_are_saved_verified_and_split_by_force_in_one_job():
+    """perturbed_e6_envelope_extremals reads the envelope, every link and walk (their z) and the
+    scan's solves (the problems), and feeds the figures and the paper."""
+    rc, out = smk("-n", "--forceall", "--cores", "2", "results/perturbed/paper_section.tex")
+    assert rc == 0, out[-2000:]
+    job = planned_inputs(out, "perturbed_e6_envelope_extremals")["results/perturbed/e6_envelope_extremals.csv"]
+    assert "results/perturbed/e6_envelope.csv" in job
+    assert sum(i.startswith("results/perturbed/e6_links/") for i in job) == len(F.link_pairs(PT))
+    assert sum(i.startswith("results/perturbed/e6_walks/") for i in job) == len(F.link_pairs(PT))
+    assert sum(i.startswith("results/perturbed/e6/") for i in job) == len(P.scan_run_dates(PT))
+    for rule in ("perturbed_figures", "perturbed_paper_section"):
+        assert any("results/perturbed/e6_envelope_extremals.csv" in inputs for inputs in planned_inputs(out, rule).values())

@@ -195,6 +195,24 @@ rule perturbed_e6_envelope:
     script: "../scripts/perturbed_e6_envelope.py"
 
 
+# The extremals of other families heavier than the scan's: saved as artifacts, re-propagated
+# (spaceopt.studies.verify) and split by force (spaceopt.studies.force_shares)
+E6_HEAVIER = [f"{PTDIR}/e6_envelope_extremals.csv"] if E6_WALKS else []
+
+
+rule perturbed_e6_envelope_extremals:
+    input: envelope=E6_ENVELOPE, links=pt_e6_link_files(), walks=pt_e6_walk_files(),
+           dates=[f"{PTDIR}/e6/{d}.json" for d in E6_DATES], src=PT_SRC, eph=pt_ephemeris(E6["case"], E6["model"]),
+           _src=lib_sources("studies/scan_walks", "studies/force_shares", "studies/verify")
+    output: table=f"{PTDIR}/e6_envelope_extremals.csv", artifacts=directory(f"{PTDIR}/e6_envelope")
+    params: cfg=lambda w: pt_config_for(E6["case"], E6["model"]), dates=E6_DATES,
+            mass_tol_kg=(E6_LINKS or {}).get("mass_tol_kg")
+    log: f"{PTDIR}/logs/e6_envelope_extremals.log"
+    benchmark: f"{PTDIR}/benchmarks/e6_envelope_extremals.tsv"
+    resources: mem_mb=4000, runtime=60
+    script: "../scripts/perturbed_e6_envelope_extremals.py"
+
+
 # ---------------------------------------------------------------- E8 revolution counts
 
 E8 = PT["e8"]
@@ -362,6 +380,7 @@ def pt_figure_names():
 rule perturbed_figures:
     input: **pt_stage_jsons(), _src=lib_sources("studies/perturbed_figures", "studies/scan_families", "report/figures"),
            _families=E6_FAMILIES, _walks=E6_WALKS_CSV, _envelope=E6_ENVELOPE, _force_shares=FS_TABLE,
+           _envelope_extremals=E6_HEAVIER,
            _src_fs=lib_sources("studies/force_shares")
     output: [f"{PTDIR}/figures/{f}.{ext}" for f in pt_figure_names() for ext in ("pdf", "png")]
     params: run=PT["run"], cases={c: {"models": PT["cases"][c]["models"]} for c in PT["cases"]},
@@ -376,7 +395,7 @@ rule perturbed_paper_section:
            verify=f"{PTDIR}/verification.csv", tof_maximum=f"{PTDIR}/tof_maximum.csv",
            budget=f"{PTDIR}/e9_budget.json",
            figures=[f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()],
-           families=E6_FAMILIES, walks=E6_WALKS_CSV, envelope=E6_ENVELOPE, force_shares=FS_TABLE,
+           families=E6_FAMILIES, walks=E6_WALKS_CSV, envelope=E6_ENVELOPE, heavier=E6_HEAVIER, force_shares=FS_TABLE,
            force_shares_by_revolution=FS_BY_REVOLUTION, **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},
            _src=lib_sources("studies/perturbed_report", "studies/scan_families", "studies/scan_walks",
                             "studies/force_shares")
@@ -390,4 +409,4 @@ rule perturbed_paper_section:
 
 ALL_TARGETS += [f"{PTDIR}/{t}.csv" for t in PT_TABLES] + [
     f"{PTDIR}/reproduction.csv", f"{PTDIR}/paper_section.tex", f"{PTDIR}/e9_budget.json"] + [
-    f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()] + E6_FAMILIES + E6_ENVELOPE + FS_TABLE + FS_BY_REVOLUTION
+    f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()] + E6_FAMILIES + E6_ENVELOPE + E6_HEAVIER + FS_TABLE + FS_BY_REVOLUTION

@@ -37,7 +37,8 @@ def main(sm):
                   if r["artifact"].startswith("e6/")]
         if shares:
             unp = R.summary_or_none(payloads, "e5_unperturbed")
-            F.force_shares_vs_date(shares, unp and unp["m_f_kg"], out / "fig_e6_force_shares")
+            heavier = read_csv(sm.input._envelope_extremals[0]) if sm.input._envelope_extremals else []
+            F.force_shares_vs_date(shares, unp and unp["m_f_kg"], out / "fig_e6_force_shares", heavier=heavier)
     if "e7" in run:
         runs = {m: npz(f"e7_{m}") for m in cases["e7"]["models"] if f"e7_{m}" in stages}
         F.projections_3d(runs, "E7: GTO -> Molniya, 100 rev, 1 N (thick: burns)", out / "fig_4_2_1_6")

@@ -22,6 +22,8 @@ def main(sm):
     if sm.input.envelope:
         families += " " + W.envelope_sentence(_read(sm.input.walks[0]), _read(sm.input.envelope[0]),
                                               sm.params.e6_links["mass_tol_kg"])
+    if sm.input.heavier:
+        families += " " + W.heavier_sentence(_read(sm.input.heavier[0]))
     Path(sm.output[0]).write_text(R.paper_section(rows, {}, budget, e6sum, list(sm.input.figures),
                                                   e8_count_start=sm.params.e8_count_start,
                                                   smoothing=sm.params.e8_smoothing,

@@ -185,12 +185,14 @@ def _walk_lines(others: list, walks: list) -> list[list[dict]]:
     return lines
 
 
-def force_shares_vs_date(rows: list, unperturbed_m_f: float | None, path,
+def force_shares_vs_date(rows: list, unperturbed_m_f: float | None, path, heavier=(),
                          title="E6: what each force contributes to the change of the orbit"):
     """Each force's share of the change of angular momentum Δh against the departure day (left),
     and the final mass against the Moon's share (right, with the least-squares line and the
     unperturbed m_f). ``rows``: the E6 rows of ``force_shares.csv``
-    (:mod:`spaceopt.studies.force_shares`), artifact ``e6/<date>``."""
+    (:mod:`spaceopt.studies.force_shares`), artifact ``e6/<date>``; ``heavier``: the rows of
+    ``e6_envelope_extremals.csv``, other families' extremals heavier than the scan's, drawn as
+    open circles on the right."""
     rows = sorted(rows, key=lambda r: r["artifact"])
     days = [_day(r["artifact"].split("/")[-1]) for r in rows]
     fig, axes = plt.subplots(1, 2, figsize=(11, 3.8))
@@ -206,6 +208,9 @@ def force_shares_vs_date(rows: list, unperturbed_m_f: float | None, path,
     slope, icpt = np.polyfit(moon, m_f, 1)
     xs = np.array([0.0, moon.max()])
     axes[1].plot(xs, icpt + slope * xs, "-", color="tab:red", lw=0.8, label=f"least squares, {10 * slope:+.2f} kg per 10 %")
+    if heavier:
+        axes[1].plot([100 * r["h_share_moon"] for r in heavier], [r["m_f_kg"] for r in heavier], "o", mfc="none",
+                     color="tab:green", ms=6, label="another family's heavier extremal")
     if unperturbed_m_f is not None:
         axes[1].axhline(unperturbed_m_f, color="tab:blue", ls="--", label="unperturbed")
     axes[1].set_xlabel("the Moon's share of Δh, %"); axes[1].set_ylabel("m_f, kg")

@@ -118,6 +118,41 @@ def envelope_rows(dates: list[str], scan: dict, links: list[dict], steps: list[d
     return rows
 
 
+def heavier_extremals(envelope: list[dict], links: list[dict], steps: list[dict], mass_tol_kg: float) -> list[tuple]:
+    """(envelope row, z) of every date where another family's extremal is heavier than the scan's
+    by more than ``mass_tol_kg``: its unknowns z from the link record (``links``: the ``link``
+    blocks of the link artifacts) or the walk step (``steps``: the steps of the walk artifacts)
+    that found it, matched by date and m_f (the envelope takes m_f from them)."""
+    found = {(r["to_date"], r["m_f_kg"]): r["z"] for r in links if r.get("z") is not None}
+    found |= {(s["date"], s["m_f_kg"]): s["z"] for s in steps if s.get("z") is not None}
+    out = []
+    for row in envelope:
+        if float(row["gain_kg"]) > mass_tol_kg:
+            z = found.get((row["date"], float(row["m_f_kg"])))
+            if z is None:
+                raise ValueError(f"e6_envelope.csv: no link or walk step holds the extremal of {row['date']} "
+                                 f"({row['m_f_kg']} kg)")
+            out.append((row, z))
+    return out
+
+
+def heavier_sentence(rows: list[dict]) -> str:
+    """The paper's account of ``e6_envelope_extremals.csv`` (the heavier extremals of other
+    families saved, re-propagated and split by force; plain text). '' without rows."""
+    if not rows:
+        return ""
+    col = lambda k: [float(r[k]) for r in rows if r.get(k) not in (None, "")]  # noqa: E731
+    text = (f"The {len(rows)} heavier extremals of other families, saved from their unknowns "
+            f"(results/perturbed/e6_envelope/), re-propagate in Cartesian coordinates to within "
+            f"{max(col('final_position_vs_solver_km')):.3g} km of the solver's end point and "
+            f"{max(abs(x) for x in col('final_mass_error_kg')):.2g} kg of its final mass")
+    moon, closest = col("h_share_moon"), col("moon_closest_km")
+    if moon and closest:
+        text += (f"; they take {100 * min(moon):.0f} to {100 * max(moon):.0f} % of the change of angular momentum "
+                 f"from the Moon and pass it at {min(closest):,.0f} to {max(closest):,.0f} km")
+    return text + "."
+
+
 def arrival(date: str, time_utc: str, tof_days: float) -> str:
     """The arrival epoch (UTC, to the minute) of a departure at ``date`` ``time_utc`` after
     ``tof_days``."""
