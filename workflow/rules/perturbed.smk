@@ -206,7 +206,7 @@ rule perturbed_e6_envelope_extremals:
            _src=lib_sources("studies/scan_walks", "studies/force_shares", "studies/verify")
     output: table=f"{PTDIR}/e6_envelope_extremals.csv", artifacts=directory(f"{PTDIR}/e6_envelope")
     params: cfg=lambda w: pt_config_for(E6["case"], E6["model"]), dates=E6_DATES,
-            mass_tol_kg=(E6_LINKS or {}).get("mass_tol_kg")
+            mass_tol_kg=(E6_LINKS or {}).get("mass_tol_kg"), samples_per_rev=E6.get("envelope_samples_per_rev", 2000)
     log: f"{PTDIR}/logs/e6_envelope_extremals.log"
     benchmark: f"{PTDIR}/benchmarks/e6_envelope_extremals.tsv"
     resources: mem_mb=4000, runtime=60

@@ -26,11 +26,12 @@ def main(sm):
     out = Path(sm.output.artifacts)
     out.mkdir(parents=True, exist_ok=True)
     rows = []
-    for row, z in W.heavier_extremals(read_csv(sm.input.envelope), links, steps, sm.params.mass_tol_kg):
+    for row, z in W.heavier_extremals(read_csv(sm.input.envelope[0]), links, steps, sm.params.mass_tol_kg):
         t0 = time.perf_counter()
         date = row["date"]
         path = out / f"{date}.json"
-        P.save(W.extremal_at(P.load(scan[date]), z), path, cfg, 0.0, extra={"family_of": row["family_of"]})
+        P.save(W.extremal_at(P.load(scan[date]), z), path, cfg, 0.0, extra={"family_of": row["family_of"]},
+               samples_per_rev=sm.params.samples_per_rev)
         shares = {"force_shares": S.force_shares(path), "artifact": f"e6_envelope/{date}.json",
                   "scalars": artifacts.read_json(path)["scalars"]}
         check = verify_ot(path)
