@@ -26,6 +26,12 @@ The same quadratures at the crossings of L = L0 + 2πk (events of the integratio
 shares of Δh by revolution; with the Moon in the model, the closest approach to it is reported
 too (the E6 extremals that take most from the Moon pass it closest).
 
+A static conservative field (J2 about the frozen pole) does work equal to the drop of its
+potential between the end points, whatever the path: its share of ΔE says where the transfer
+starts and ends, not how it flies (E8: J2's share is −0.839 % at every revolution count, the J2
+potential at the GTO perigee; the zonal geopotential likewise to first order). The Moon and the
+Sun move, so their work and every torque depend on the path.
+
 A change below MIN_CHANGE of its initial value (|ΔE| of a LEO → LEO transfer at one semi-major
 axis, E9) has no meaningful shares: they are left empty (None), and its closure is taken relative
 to MIN_CHANGE·|E_0| instead.
@@ -187,7 +193,8 @@ def shares_sentence(rows: list[dict], unperturbed_m_f: float | None = None, revo
     text = ("What each force contributes: along each perturbed solve the change of the orbit's angular momentum "
             "Δh is split into the integrals of r × a of the thrust and of each perturbing acceleration, projected "
             "on Δh, and the change of energy ΔE likewise into the integrals of v·a (central gravity changes "
-            "neither); the integrals ride along the independent Cartesian re-propagation, and each budget closes "
+            "neither; a static field's work is the drop of its potential between the end points, whatever the "
+            "path); the integrals ride along the independent Cartesian re-propagation, and each budget closes "
             f"to {closure:.1e} (results/perturbed/force_shares.csv).")
     e6 = [r for r in rows if str(r["artifact"]).startswith("e6/")]
     if e6:
