@@ -116,6 +116,19 @@ def test_perturbed_solves_are_re_propagated_with_their_force_model(quick):
     assert "An independent verifier re-propagates each of the 1 perturbed" in (quick / "perturbed" / "paper_section.tex").read_text()
 
 
+def test_the_perturbed_solve_is_split_by_force(quick):
+    """The force shares of the E9 J2 solve (spaceopt.studies.force_shares): J2's precession makes
+    the plane change (its share of Δh near 1, spec §6), ΔE too small for shares; one row per
+    revolution of L (63.007: 64 rows); a sentence in the paper."""
+    rows = list(csv.DictReader(open(quick / "perturbed" / "force_shares.csv")))
+    assert [r["artifact"] for r in rows] == ["e9/j2.json"]
+    assert 0.95 < float(rows[0]["h_share_j2"]) < 1.05 and rows[0]["E_share_j2"] == ""
+    assert float(rows[0]["closure_h"]) < 1e-6
+    revs = list(csv.DictReader(open(quick / "perturbed" / "force_shares_by_revolution.csv")))
+    assert len(revs) == 64 and sum(float(r["h_share_j2"]) for r in revs) == pytest.approx(float(rows[0]["h_share_j2"]))
+    assert "What each force contributes" in (quick / "perturbed" / "paper_section.tex").read_text()
+
+
 def test_the_perturbed_solve_ends_on_a_certified_maximum_of_the_final_mass(quick):
     """The free-time end game of the E9 J2 solve: a local maximum of m_f in t_f (probes 0.001 d
     apart, the case's setting), recorded in its artifact, tof_maximum.csv and the paper."""
