@@ -1,5 +1,7 @@
 """The `spaceopt solve` command: verdict when no transfer exists, diagnosis on non-convergence."""
 import json
+import tempfile
+from pathlib import Path
 
 import pytest
 
@@ -100,3 +102,20 @@ def test_perturbations_are_switched_on_after_the_unperturbed_chain(tmp_path, cap
     assert share == pytest.approx(fs["h_share"]["moon"], rel=0.02) and abs(share) > 1e-6
     with pytest.raises(ValueError, match="not a perturbed artifact"):
         force_shares(tmp_path / "ot.json")
+    # the verify job re-samples an artifact from its unknowns where told (E6: the control
+    # spline of the samples limits the check on long transfers): the same extremal, twice the
+    # samples, checked as closely
+    import importlib.util
+    import types
+    spec = importlib.util.spec_from_file_location("verify_ot_job", Path(__file__).parents[1] / "workflow/scripts/verify_ot.py")
+    job = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(job)
+    out = tmp_path / "ot_perturbed.verify.json"
+    job.main(types.SimpleNamespace(input=types.SimpleNamespace(json=str(tmp_path / "ot_perturbed.json")),
+                                   output=[str(out)], params=types.SimpleNamespace(samples_per_rev=400)))
+    fine = json.loads(out.read_text())["verification"]
+    assert fine["samples_per_rev"] == 400 and fine["final_position_vs_solver_km"] < 1.0
+    with tempfile.TemporaryDirectory() as tmp:
+        again = verify.resampled(tmp_path / "ot_perturbed.json", tmp, 400)
+        assert len(artifacts.read_npz(again)["t_s"]) == 2 * len(smp["t_s"])
+        assert artifacts.read_json(again)["scalars"]["m_f_kg"] == pytest.approx(pert["scalars"]["m_f_kg"], abs=1e-9)

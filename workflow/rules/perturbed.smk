@@ -206,7 +206,7 @@ rule perturbed_e6_envelope_extremals:
            _src=lib_sources("studies/scan_walks", "studies/force_shares", "studies/verify")
     output: table=f"{PTDIR}/e6_envelope_extremals.csv", artifacts=directory(f"{PTDIR}/e6_envelope")
     params: cfg=lambda w: pt_config_for(E6["case"], E6["model"]), dates=E6_DATES,
-            mass_tol_kg=(E6_LINKS or {}).get("mass_tol_kg"), samples_per_rev=E6.get("envelope_samples_per_rev", 2000)
+            mass_tol_kg=(E6_LINKS or {}).get("mass_tol_kg"), samples_per_rev=E6.get("verify_samples_per_rev")
     log: f"{PTDIR}/logs/e6_envelope_extremals.log"
     benchmark: f"{PTDIR}/benchmarks/e6_envelope_extremals.tsv"
     resources: mem_mb=4000, runtime=60
@@ -289,10 +289,17 @@ def pt_stage_jsons():
     return out
 
 
+def pt_verify_samples(w):
+    """The E6 dates are re-sampled from their unknowns for the check (perturbed.e6.verify_samples_per_rev)."""
+    return E6.get("verify_samples_per_rev") if w.solve.startswith("e6/") else None
+
+
 rule perturbed_verify:
-    input: json=f"{PTDIR}/{{solve}}.json", src=lib_sources("studies/verify", "forces", "ephemeris", "frames")
+    input: json=f"{PTDIR}/{{solve}}.json", src=lib_sources("studies/verify", "forces", "ephemeris", "frames"),
+           solver=lambda w: PT_SRC if pt_verify_samples(w) else []
     output: f"{PTDIR}/{{solve}}.verify.json"
     wildcard_constraints: solve=r"(e5|e6|e7|e8|e9)/[^/]+"
+    params: samples_per_rev=pt_verify_samples
     log: f"{PTDIR}/logs/verify_{{solve}}.log"
     benchmark: f"{PTDIR}/benchmarks/verify_{{solve}}.tsv"
     resources: mem_mb=2000, runtime=30

@@ -15,11 +15,14 @@ the solver's own (:func:`spaceopt.forces.perturbing_acceleration`, checked separ
 textbook magnitudes, finite differences and jplephem); what is independent here is the rest:
 Newton's equations in Cartesian coordinates and time instead of the Hamiltonian system in
 equinoctial elements and the auxiliary longitude, SciPy's integrator instead of diffrax, and the
-control rebuilt from the recorded samples.
+control rebuilt from the recorded samples. Where those samples are too sparse for a long transfer
+(the control spline sets the check's resolution), :func:`resampled` saves the same extremal again,
+sampled finer, before the check.
 """
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -95,6 +98,16 @@ def verify_ot(json_path, rtol=1e-11, atol_m=1e-3) -> dict:
     return out
 
 
+def resampled(json_path, out_dir, samples_per_rev: int) -> Path:
+    """The artifact saved again in ``out_dir`` with ``samples_per_rev`` samples per revolution:
+    its solution rebuilt from the unknowns z by the solver (the same extremal, sampled finer; the
+    NPZ is the solver's flow in any case), so that the samples do not limit the check's resolution."""
+    from . import perturbed as P
+    out = Path(out_dir) / Path(json_path).name
+    P.save(P.load(json_path), out, {}, 0.0, samples_per_rev=samples_per_rev)
+    return out
+
+
 def _perturbing_acceleration(data: dict):
     """a_p(r [m], t [s after departure]) [m/s²] of a perturbed artifact; zero for an unperturbed one."""
     extra = data.get("extra") or {}
@@ -110,7 +123,8 @@ def _perturbing_acceleration(data: dict):
 
 VERIFICATION_COLUMNS = ["artifact", "final_a_error_km", "final_e_error", "final_i_error_deg", "final_L_error_deg",
                         "final_mass_error_kg", "final_position_vs_solver_km",
-                        "final_position_without_perturbations_km", "integrator", "nfev", "rtol", "success"]
+                        "final_position_without_perturbations_km", "integrator", "nfev", "rtol", "success",
+                        "samples_per_rev"]
 
 
 def verification_rows(paths) -> list[dict]:
