@@ -89,6 +89,10 @@ def test_the_e6_figure_draws_the_shares_by_date_and_the_mass_against_the_moons_s
     assert fit[0] == "least squares, +1.00 kg per 10 %" and fit[2][0] == pytest.approx(955.5)
     assert any(ln[2] == [956.13, 956.13] for ln in right)          # the unperturbed line
     assert next(ln for ln in right if ln[0] == "another family's heavier extremal")[1:] == ([pytest.approx(55.0)], [961.0])
+    no_moon = [{k: v for k, v in r.items() if "moon" not in k} for r in rows]     # E6 without the Moon
+    F.force_shares_vs_date(no_moon, 956.13, tmp_path / "fs")
+    left, right = drawn[1]
+    assert "moon" not in {ln[0] for ln in left} and right == []
 
 
 def test_a_figure_not_in_the_dissertation_is_not_captioned_as_one():

@@ -387,8 +387,7 @@ def pt_figure_names():
 rule perturbed_figures:
     input: **pt_stage_jsons(), _src=lib_sources("studies/perturbed_figures", "studies/scan_families", "report/figures"),
            _families=E6_FAMILIES, _walks=E6_WALKS_CSV, _envelope=E6_ENVELOPE, _force_shares=FS_TABLE,
-           _envelope_extremals=E6_HEAVIER,
-           _src_fs=lib_sources("studies/force_shares")
+           _envelope_extremals=E6_HEAVIER
     output: [f"{PTDIR}/figures/{f}.{ext}" for f in pt_figure_names() for ext in ("pdf", "png")]
     params: run=PT["run"], cases={c: {"models": PT["cases"][c]["models"]} for c in PT["cases"]},
             e6=E6, e8_n=E8["run_n_rev"], style=PT.get("figures", {})

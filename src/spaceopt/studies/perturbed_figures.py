@@ -202,23 +202,31 @@ def force_shares_vs_date(rows: list, unperturbed_m_f: float | None, path, heavie
             axes[0].plot(days, [100 * r[f"h_share_{k}"] for r in rows], "o-", ms=3, color=color, label=k)
     axes[0].set_xlabel("departure day, May 2021 (12:00 UTC)"); axes[0].set_ylabel("share of Δh, %")
     axes[0].legend(fontsize=8, frameon=False)
-    moon = np.array([100 * r["h_share_moon"] for r in rows])
-    m_f = np.array([r["m_f_kg"] for r in rows])
-    axes[1].plot(moon, m_f, "o", color="tab:red", ms=4, label="perturbed extremal of a date")
-    slope, icpt = np.polyfit(moon, m_f, 1)
-    xs = np.array([0.0, moon.max()])
-    axes[1].plot(xs, icpt + slope * xs, "-", color="tab:red", lw=0.8, label=f"least squares, {10 * slope:+.2f} kg per 10 %")
-    if heavier:
-        axes[1].plot([100 * r["h_share_moon"] for r in heavier], [r["m_f_kg"] for r in heavier], "o", mfc="none",
-                     color="tab:green", ms=6, label="another family's heavier extremal")
-    if unperturbed_m_f is not None:
-        axes[1].axhline(unperturbed_m_f, color="tab:blue", ls="--", label="unperturbed")
-    axes[1].set_xlabel("the Moon's share of Δh, %"); axes[1].set_ylabel("m_f, kg")
-    axes[1].legend(fontsize=8, frameon=False)
+    if all(r.get("h_share_moon") not in (None, "") for r in rows):
+        _mass_against_moon(axes[1], rows, heavier, unperturbed_m_f)
+    else:                                                                    # a model without the Moon
+        axes[1].set_visible(False)
     fig.suptitle(title)
     fig.tight_layout()
     save_figure(fig, path)
     plt.close(fig)
+
+
+def _mass_against_moon(ax, rows: list, heavier, unperturbed_m_f: float | None):
+    """The right panel of :func:`force_shares_vs_date`: m_f against the Moon's share of Δh."""
+    moon = np.array([100 * r["h_share_moon"] for r in rows])
+    m_f = np.array([r["m_f_kg"] for r in rows])
+    ax.plot(moon, m_f, "o", color="tab:red", ms=4, label="perturbed extremal of a date")
+    slope, icpt = np.polyfit(moon, m_f, 1)
+    xs = np.array([0.0, moon.max()])
+    ax.plot(xs, icpt + slope * xs, "-", color="tab:red", lw=0.8, label=f"least squares, {10 * slope:+.2f} kg per 10 %")
+    if heavier:
+        ax.plot([100 * r["h_share_moon"] for r in heavier], [r["m_f_kg"] for r in heavier], "o", mfc="none",
+                color="tab:green", ms=6, label="another family's heavier extremal")
+    if unperturbed_m_f is not None:
+        ax.axhline(unperturbed_m_f, color="tab:blue", ls="--", label="unperturbed")
+    ax.set_xlabel("the Moon's share of Δh, %"); ax.set_ylabel("m_f, kg")
+    ax.legend(fontsize=8, frameon=False)
 
 
 def costates_vs_date(dates: list, costates: list, path, title="E6: initial costates vs departure date",
