@@ -7,17 +7,13 @@ sys.path.insert(0, str(Path(__file__).parent))
 from _step import run_step  # noqa: E402
 
 from spaceopt import artifacts  # noqa: E402
-from spaceopt.studies.force_shares import force_shares  # noqa: E402
+from spaceopt.studies.force_shares import shares_payload  # noqa: E402
 
 
 def main(sm):
     t0 = time.perf_counter()
-    res = force_shares(sm.input.json)
-    scalars = artifacts.read_json(sm.input.json)["scalars"]
-    artifacts.write_json(sm.output[0], {
-        "force_shares": res, "artifact": "/".join(Path(sm.input.json).parts[-2:]),
-        "scalars": {k: scalars[k] for k in ("m_f_kg", "tof_days")},
-        "provenance": artifacts.provenance({}, time.perf_counter() - t0)})
+    payload = shares_payload(sm.input.json, "/".join(Path(sm.input.json).parts[-2:]))
+    artifacts.write_json(sm.output[0], {**payload, "provenance": artifacts.provenance({}, time.perf_counter() - t0)})
 
 
 if __name__ == "__main__":

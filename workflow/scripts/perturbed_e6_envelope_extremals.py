@@ -32,10 +32,9 @@ def main(sm):
         path = out / f"{date}.json"
         P.save(W.extremal_at(P.load(scan[date]), z), path, cfg, 0.0, extra={"family_of": row["family_of"]},
                samples_per_rev=sm.params.samples_per_rev)
-        shares = {"force_shares": S.force_shares(path), "artifact": f"e6_envelope/{date}.json",
-                  "scalars": artifacts.read_json(path)["scalars"]}
         check = verify_ot(path)
-        rows.append({"date": date, "family_of": row["family_of"], "gain_kg": row["gain_kg"], **S.share_row(shares),
+        rows.append({"date": date, "family_of": row["family_of"], "gain_kg": row["gain_kg"],
+                     **S.share_row(S.shares_payload(path, f"e6_envelope/{date}.json")),
                      **{k: check.get(k) for k in VERIFY}})
         print(f"[e6 envelope {date}] m_f {rows[-1]['m_f_kg']:.6f} kg, Moon {100 * rows[-1]['h_share_moon']:.1f} % "
               f"of Δh, verified to {check['final_position_vs_solver_km']:.3g} km ({time.perf_counter() - t0:.0f} s)",

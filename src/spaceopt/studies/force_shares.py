@@ -144,6 +144,24 @@ def _energy(r, v, mu) -> float:
     return 0.5 * float(v @ v) - mu / float(np.linalg.norm(r))
 
 
+def shares_payload(json_path, artifact: str) -> dict:
+    """What a ``*.shares.json`` holds (:func:`share_row`'s input): the budget of the artifact at
+    ``json_path`` (:func:`force_shares`), its name ``artifact`` and its m_f and Δt."""
+    scalars = artifacts.read_json(json_path)["scalars"]
+    return {"force_shares": force_shares(json_path), "artifact": artifact,
+            "scalars": {k: scalars[k] for k in ("m_f_kg", "tof_days")}}
+
+
+def present(rows: list[dict], key: str) -> list[float]:
+    """The values of column ``key`` in the rows that have it (None or a CSV's empty cell: not)."""
+    return [float(r[key]) for r in rows if r.get(key) not in (None, "")]
+
+
+def in_every(rows: list[dict], key: str) -> bool:
+    """Does every row have a value in column ``key`` (a force of every solve)?"""
+    return all(r.get(key) not in (None, "") for r in rows)
+
+
 def share_row(payload: dict) -> dict:
     """One table row of a ``*.shares.json`` payload: the artifact, its m_f and Δt, |Δh|/|h_0|,
     ΔE, the share of Δh and of ΔE of each force of :data:`FORCES` it has, the closest approach to
@@ -198,10 +216,10 @@ def shares_sentence(rows: list[dict], unperturbed_m_f: float | None = None, revo
             f"to {closure:.1e} (results/perturbed/force_shares.csv).")
     e6 = [r for r in rows if str(r["artifact"]).startswith("e6/")]
     if e6:
-        pct = lambda k: [100 * float(r[f"h_share_{k}"]) for r in e6 if r.get(f"h_share_{k}") not in (None, "")]  # noqa: E731
+        pct = lambda k: [100 * x for x in present(e6, f"h_share_{k}")]  # noqa: E731
         ranges = ", ".join(f"{NAMES[k]} {min(v):.0f} to {max(v):.0f} %" if max(abs(x) for x in v) >= 0.5
                            else f"{NAMES[k]} less than 0.5 %" for k in FORCES[1:] if (v := pct(k)))
-        thrust_e = [100 * float(r["E_share_thrust"]) for r in e6 if r.get("E_share_thrust") not in (None, "")]
+        thrust_e = [100 * x for x in present(e6, "E_share_thrust")]
         text += (f" Over the {len(e6)} E6 dates the thrust supplies {min(pct('thrust')):.0f} to "
                  f"{max(pct('thrust')):.0f} % of Δh, {ranges}"
                  + (f"; the thrust supplies {min(thrust_e):.0f} to {max(thrust_e):.0f} % of ΔE." if thrust_e else "."))
@@ -213,13 +231,13 @@ def shares_sentence(rows: list[dict], unperturbed_m_f: float | None = None, revo
                      f"a least-squares line gives {10 * slope:+.2f} kg per 10 % of Δh and {icpt:.2f} kg at no "
                      "lunar share" + (f" (unperturbed: {unperturbed_m_f:.2f} kg)." if unperturbed_m_f is not None
                                       else "."))
-            closest = np.array([float(r["moon_closest_km"]) for r in e6 if r.get("moon_closest_km") not in (None, "")])
+            closest = np.array(present(e6, "moon_closest_km"))
             if len(closest) == len(moon) and np.ptp(closest) > 0:
                 text += (f" The Moon's share goes with how closely the transfer passes the Moon (closest approach "
                          f"{closest.min():,.0f} to {closest.max():,.0f} km): correlation "
                          f"{np.corrcoef(closest, moon)[0, 1]:.2f}.")
             top = e6[int(np.argmax(moon))]
-            revs = [r for r in revolutions if r["artifact"] == top["artifact"] and r.get("h_share_moon") not in (None, "")]
+            revs = [r for r in revolutions if r["artifact"] == top["artifact"] and in_every([r], "h_share_moon")]
             if revs:
                 best = max(revs, key=lambda r: float(r["h_share_moon"]))
                 text += (f" It is gathered mostly in one revolution: at {_date(top['artifact'])}, "
@@ -234,9 +252,9 @@ def shares_sentence(rows: list[dict], unperturbed_m_f: float | None = None, revo
         text += " Elsewhere (share of Δh; of ΔE, the thrust's): " + "; ".join(
             f"{name}" + (f" ({len(g)} counts)" if len(g) > 1 else "") + ": "
             + ", ".join(f"{NAMES[k]} {_pct_range(g, f'h_share_{k}')}" for k in FORCES
-                        if all(r.get(f"h_share_{k}") not in (None, "") for r in g))
+                        if in_every(g, f"h_share_{k}"))
             + (f"; {_pct_range(g, 'E_share_thrust')} of ΔE"
-               if all(r.get("E_share_thrust") not in (None, "") for r in g) else "")
+               if in_every(g, "E_share_thrust") else "")
             for name, g in groups.items()) + "."
     return text
 

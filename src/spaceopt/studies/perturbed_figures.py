@@ -14,6 +14,7 @@ import numpy as np  # noqa: E402
 
 from ..report.figures import save_figure  # noqa: E402
 from ..constants import DAY  # noqa: E402
+from .force_shares import in_every  # noqa: E402
 from .scan_families import segments  # noqa: E402
 
 COLORS = {"unperturbed": "tab:blue", "j2": "tab:green", "g44": "tab:orange", "g44_moon_sun": "tab:red"}
@@ -198,11 +199,11 @@ def force_shares_vs_date(rows: list, unperturbed_m_f: float | None, path, heavie
     fig, axes = plt.subplots(1, 2, figsize=(11, 3.8))
     for k, color in (("thrust", "k"), ("moon", "tab:gray"), ("sun", "tab:orange"), ("geopotential", "tab:green"),
                      ("j2", "tab:green")):
-        if all(r.get(f"h_share_{k}") not in (None, "") for r in rows):      # a force of these solves
+        if in_every(rows, f"h_share_{k}"):                                   # a force of these solves
             axes[0].plot(days, [100 * r[f"h_share_{k}"] for r in rows], "o-", ms=3, color=color, label=k)
     axes[0].set_xlabel("departure day, May 2021 (12:00 UTC)"); axes[0].set_ylabel("share of Δh, %")
     axes[0].legend(fontsize=8, frameon=False)
-    if all(r.get("h_share_moon") not in (None, "") for r in rows):
+    if in_every(rows, "h_share_moon"):
         _mass_against_moon(axes[1], rows, heavier, unperturbed_m_f)
     else:                                                                    # a model without the Moon
         axes[1].set_visible(False)
