@@ -6,6 +6,8 @@
 (b) A corrupted or truncated artifact is detected by spaceopt.artifacts.read_json/read_npz
     (ArtifactError), both directly and when a workflow step reads it.
 (c) A failing step exits non-zero with a one-line error, and Snakemake names the rule and log.
+(d) ./dev reproduce builds the report without the perturbed solves that failed (a second pass),
+    and still exits non-zero.
 
 The DAG runs in a temporary copy of the workflow skeleton (Snakefile, common.smk, _step.py,
 global config) with small test-only rules written by this file.
@@ -253,3 +255,41 @@ def test_a_bug_keeps_its_traceback_in_the_log_and_says_one_line(capfd):
     assert "Traceback" in log.getvalue() and "ZeroDivisionError" in log.getvalue()
     assert capfd.readouterr().err.strip().splitlines() == [
         "error: internal error ZeroDivisionError: division by zero (traceback in the rule's log)"]
+
+
+def _dev_tree(tmp_path: Path, snakemake_body: str) -> Path:
+    """A copy of ./dev whose set-up has nothing to do and whose snakemake is a stand-in script."""
+    root = tmp_path / "checkout"
+    (root / ".venv" / "bin").mkdir(parents=True)
+    (root / "dev").write_text((ROOT / "dev").read_text())
+    for name in ("requirements.lock", "pyproject.toml"):
+        (root / name).write_text("")
+    (root / ".venv" / "bin" / "python").symlink_to(sys.executable)
+    fake = root / ".venv" / "bin" / "snakemake"
+    fake.write_text("#!/usr/bin/env bash\necho \"pass REPORT_FAILED=${SPACEOPT_REPORT_FAILED:-0} $*\"\n" + snakemake_body)
+    fake.chmod(0o755)
+    time.sleep(0.01)
+    (root / ".venv" / ".installed").touch()
+    return root
+
+
+@pytest.mark.parametrize("failure, passes, rc", [
+    ("mkdir -p results/perturbed/e8 && echo '{}' > results/perturbed/e8/j2_n450.failure.json; exit 1", 2, 1),
+    ("exit 1", 1, 1),                       # a failure elsewhere (no perturbed diagnosis): no report pass
+    ("exit 0", 1, 0),
+])
+def test_dev_reproduce_builds_the_report_without_failed_perturbed_solves_and_keeps_the_exit_status(
+        tmp_path, failure, passes, rc):
+    """./dev reproduce: when the first pass wrote a perturbed *.failure.json, a second pass runs
+    with SPACEOPT_REPORT_FAILED=1 and the same arguments (spaceopt.studies.failed_solves); the
+    exit status is the first pass's."""
+    root = _dev_tree(tmp_path, f'[ "${{SPACEOPT_REPORT_FAILED:-0}}" = 1 ] && exit 0\n{failure}\n')
+    proc = subprocess.run(["bash", "dev", "reproduce", "--dry-run"], cwd=root, capture_output=True, text=True,
+                          env=dict(os.environ, SPACEOPT_NO_TEX="1"), timeout=60)
+    lines = [line for line in proc.stdout.splitlines() if line.startswith("pass ")]
+    assert proc.returncode == rc, proc.stdout + proc.stderr
+    assert lines[0] == "pass REPORT_FAILED=0 --cores 2 --keep-going --dry-run"
+    assert len(lines) == passes
+    if passes == 2:
+        assert lines[1] == "pass REPORT_FAILED=1 --cores 2 --keep-going --dry-run"
+        assert "building the report without them" in proc.stderr

@@ -158,3 +158,32 @@ def test_the_heavier_extremals_of_the_envelope_are_saved_verified_and_split_by_f
     assert sum(i.startswith("results/perturbed/e6/") for i in job) == len(P.scan_run_dates(PT))
     for rule in ("perturbed_figures", "perturbed_paper_section"):
         assert any("results/perturbed/e6_envelope_extremals.csv" in inputs for inputs in planned_inputs(out, rule).values())
+
+
+def test_the_report_pass_leaves_out_the_failed_solves_and_those_that_start_from_them(tmp_path, monkeypatch):
+    """SPACEOPT_REPORT_FAILED=1 (the second pass of ./dev reproduce): an E6 date and an E8 solve
+    whose artifact is missing and whose failure.json is there are not planned again, nor the
+    solves that start from them (E6: start_from; E8: the later models at that count), and the
+    tables and paper are planned without them. Without the variable they are planned as usual."""
+    for stem in ("e6/2021-05-17", "e8/j2_n450"):
+        path = tmp_path / "perturbed" / f"{stem}.failure.json"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text('{"error": "no convergence (test)"}')
+    args = ("-n", "--forceall", "--cores", "2", f"{tmp_path}/perturbed/paper_section.tex",
+            "--config", f"results_dir={tmp_path}")
+    rc, out = smk(*args)
+    assert rc == 0, out[-2000:]
+    assert f"{tmp_path}/perturbed/e6/2021-05-18.json" in planned_inputs(out, "perturbed_e6_date")
+    assert f"{tmp_path}/perturbed/e8/g44_n450.json" in planned_inputs(out, "perturbed_e8")
+    monkeypatch.setenv("SPACEOPT_REPORT_FAILED", "1")
+    rc, out = smk(*args)
+    assert rc == 0, out[-2000:]
+    dates = {Path(o).stem for o in planned_inputs(out, "perturbed_e6_date")}
+    left = {"2021-05-17", "2021-05-18", "2021-05-19"}            # 05-18 starts from 05-17, 05-19 from 05-18
+    assert dates == set(P.scan_run_dates(PT)) - left
+    e8 = {Path(o).stem for o in planned_inputs(out, "perturbed_e8")}
+    assert "unperturbed_n450" in e8 and "j2_n400" in e8 and not {"j2_n450", "g44_n450"} & e8
+    assert planned_rules(out)["perturbed_paper_section"] == 1
+    tables = next(iter(planned_inputs(out, "perturbed_tables").values()))
+    assert not any(f"/e6/{d}.json" in i for d in left for i in tables)
+    assert not any(i.endswith(("/e8/j2_n450.json", "/e8/g44_n450.json")) for i in tables)

@@ -9,8 +9,10 @@
 #   results/perturbed/e9_budget.json                    ΔΩ budget check (spec §6)
 #   results/perturbed/{e5,e6_date_scan,e7,e8,e9}.csv, reproduction.csv, paper_section.tex, figures/
 #   results/perturbed/tof_maximum.csv                   the free-time end game of every perturbed solve
+import os
+from spaceopt.studies.failed_solves import diagnosis, failures_sentence, left_out, without_failed
 from spaceopt.studies.perturbed import (e8_count_start, e8_model_steps, e8_runs, e8_skipped, e8_smoothing,
-                                        scan_run_dates, scan_source)
+                                        scan_dates, scan_run_dates, scan_source)
 from spaceopt.studies.scan_families import link_pairs, link_settings, start_pairs
 from spaceopt.studies.scan_walks import walk_dates, walk_settings
 
@@ -89,6 +91,45 @@ rule perturbed_solve:
     benchmark: f"{PTDIR}/benchmarks/{{case}}_{{model}}.tsv"
     resources: mem_mb=4000, runtime=120
     script: "../scripts/perturbed_solve.py"
+
+
+def pt_e8_start(model, n):
+    """What E8 solve (model, n) starts from, as (model, n), or None for a chain from the zero
+    guess. The first model of the case: the chain (perturbed.e8.count_start: chain, the
+    default), or the next smaller n of the list (previous: n to n, the smallest n the chain).
+    Every later model: the previous model at the same n (perturbations switched on by τ;
+    pt_warm_source), so the perturbed counts are independent jobs."""
+    prev = pt_warm_source("e8", model)
+    if prev is not None:
+        return prev, float(n)
+    if e8_count_start(PT) == "chain":
+        return None
+    ns = sorted(float(x) for x in PT["e8"]["n_rev"])
+    n = float(n)
+    if n not in ns or ns.index(n) == 0:
+        return None
+    return model, ns[ns.index(n) - 1]
+
+
+def pt_e8_source(n, model):
+    """The stem of the E8 artifact solve (model, n) starts from (pt_e8_start), or None."""
+    start = pt_e8_start(model, n)
+    return None if start is None else f"{start[0]}_n{_pt_fmt(start[1])}"
+
+
+# The second pass of ./dev reproduce (environment SPACEOPT_REPORT_FAILED=1) leaves out the E6 dates and the
+# E8 solves that failed in the first, with the solves that start from them, so that the tables,
+# figures and paper are built from what converged (spaceopt.studies.failed_solves).
+PT_FAILED = {"e6": {}, "e8": {}}
+if os.environ.get("SPACEOPT_REPORT_FAILED") == "1":
+    _scan_days = {d[:10] for d in scan_dates(PT["e6"])}
+    PT_FAILED = {
+        "e6": left_out(scan_run_dates(PT), lambda d: scan_source(PT, d) if scan_source(PT, d) in _scan_days else None,
+                       lambda d: diagnosis(f"{PTDIR}/e6/{d}.json")) if "e6" in PT["run"] else {},
+        "e8": left_out(e8_runs(PT), lambda r: pt_e8_start(*r),
+                       lambda r: diagnosis(f"{PTDIR}/e8/{r[0]}_n{_pt_fmt(r[1])}.json"),
+                       name=lambda r: f"{r[0]} at {r[1]:g} revolutions") if "e8" in PT["run"] else {}}
+    PT = without_failed(PT, PT_FAILED["e6"], PT_FAILED["e8"])
 
 
 # ---------------------------------------------------------------- E6 departure scan
@@ -216,24 +257,6 @@ rule perturbed_e6_envelope_extremals:
 # ---------------------------------------------------------------- E8 revolution counts
 
 E8 = PT["e8"]
-
-
-def pt_e8_source(n, model):
-    """What E8 solve (model, n) starts from. The first model of the case: the chain from the zero
-    guess (perturbed.e8.count_start: chain, the default), or the next smaller n of the list
-    (previous: n to n, the smallest n the chain). Every later model: the previous model at the
-    same n (perturbations switched on by τ; pt_warm_source), so the perturbed counts are
-    independent jobs."""
-    prev = pt_warm_source("e8", model)
-    if prev is not None:
-        return f"{prev}_n{_pt_fmt(n)}"
-    if e8_count_start(PT) == "chain":
-        return None
-    ns = sorted(float(x) for x in E8["n_rev"])
-    n = float(n)
-    if n not in ns or ns.index(n) == 0:
-        return None
-    return f"{model}_n{_pt_fmt(ns[ns.index(n) - 1])}"
 
 
 def pt_e8_inputs(w):
@@ -407,7 +430,9 @@ rule perturbed_paper_section:
                             "studies/force_shares")
     output: f"{PTDIR}/paper_section.tex"
     params: run=PT["run"], results=RESULTS, e8_count_start=e8_count_start(PT), e8_smoothing=e8_smoothing(PT),
-            e6_skipped=E6.get("skip_dates") or [], e8_skipped=e8_skipped(PT) if "e8" in PT["run"] else [],
+            e6_skipped=config["perturbed"]["e6"].get("skip_dates") or [],
+            e8_skipped=e8_skipped(config["perturbed"]) if "e8" in PT["run"] else [],
+            failures=failures_sentence(PT_FAILED["e6"], PT_FAILED["e8"]),
             e8_steps=e8_model_steps(PT), e6_dates=E6_DATES, e6_links=E6_LINKS
     log: f"{PTDIR}/logs/paper_section.log"
     script: "../scripts/perturbed_paper_section.py"

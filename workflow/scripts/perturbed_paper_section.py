@@ -30,7 +30,8 @@ def main(sm):
                                                   e8_steps=sm.params.e8_steps,
                                                   verify_rows=_read(sm.input.verify),
                                                   tof_rows=_read(sm.input.tof_maximum),
-                                                  e8_skipped=sm.params.e8_skipped, e6_families=families,
+                                                  e8_skipped=sm.params.e8_skipped, failures=sm.params.failures,
+                                                  e6_families=families,
                                                   force_shares=shares_sentence(
                                                       _read(sm.input.force_shares[0]), unp and unp["m_f_kg"],
                                                       _read(sm.input.force_shares_by_revolution[0]))

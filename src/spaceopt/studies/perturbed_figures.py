@@ -120,14 +120,14 @@ def _day(date: str) -> int:
 
 def _with_gaps(days: list, values: list, skipped: list):
     """(days, values) with a NaN at each skipped day, so that a line breaks there instead of
-    bridging the date that was left out (``perturbed.e6.skip_dates``)."""
+    bridging the date that was left out (``perturbed.e6.skip_dates``, or failed: ``failed_solves``)."""
     pts = sorted([*zip(days, values), *((_day(d), np.nan) for d in skipped)])
     return [d for d, _ in pts], [v for _, v in pts]
 
 
 def _mark_skipped(ax, skipped: list):
     for k, d in enumerate(skipped):
-        ax.axvline(_day(d), color="0.6", ls=":", lw=1, label="left out (skip_dates)" if k == 0 else None)
+        ax.axvline(_day(d), color="0.6", ls=":", lw=1, label="left out (skipped or failed)" if k == 0 else None)
 
 
 def date_scan(rows: list, path, title="E6: departure date scan, May 2021", skipped=(), families=(), walks=(),

@@ -437,7 +437,7 @@ def e8_route_text(count_start: str, smoothing: dict, steps: list) -> str:
 
 def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figures: list, *,
                   e8_count_start: str, smoothing: dict, e8_steps: list, verify_rows=(), tof_rows=(),
-                  e8_skipped=(), e6_families: str = "", force_shares: str = "",
+                  e8_skipped=(), failures: str = "", e6_families: str = "", force_shares: str = "",
                   resultsdir_macro=r"\resultsdir") -> str:
     """LaTeX fragment of the §4.2 section; every number comes from the artifacts or the config.
     ``e8_count_start``, ``smoothing``, ``e8_steps``: how each E8 count and model starts
@@ -445,6 +445,8 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
     (:func:`spaceopt.studies.verify.verification_rows`); ``tof_rows``: the free-time end games
     (:func:`tof_maximum_rows`); ``e8_skipped``: the (model, n_rev) the run leaves out
     (``perturbed.e8.skip_n_rev``, :func:`spaceopt.studies.perturbed.e8_skipped`), named in the text;
+    ``failures``: the solves that failed in this run and were left out, with their diagnoses
+    (:func:`spaceopt.studies.failed_solves.failures_sentence`; plain text);
     ``e6_families``: the scan's families and the envelope of the extremals found
     (:func:`spaceopt.studies.scan_families.families_sentence`,
     :func:`spaceopt.studies.scan_walks.envelope_sentence`; plain text); ``force_shares``: what each
@@ -469,6 +471,7 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
                 "not to converge; the E8 table has no row for them): "
                 + ", ".join(f"{latex_escape(m)} at {n:g} revolutions" for m, n in e8_skipped) + ". "
                 if e8_skipped else "")
+             + (latex_escape(failures) + " " if failures else "")
              + tof_maximum_sentence(list(tof_rows))
              + f"Of the reproduction rows, {n_pass} pass, {n_fail} fail "
              f"and {n_miss} were not produced in this run (Table~\\ref{{tab:scoreboard}}). "
