@@ -119,3 +119,29 @@ def test_perturbations_are_switched_on_after_the_unperturbed_chain(tmp_path, cap
         again = verify.resampled(tmp_path / "ot_perturbed.json", tmp, 400)
         assert len(artifacts.read_npz(again)["t_s"]) == 2 * len(smp["t_s"])
         assert artifacts.read_json(again)["scalars"]["m_f_kg"] == pytest.approx(pert["scalars"]["m_f_kg"], abs=1e-9)
+
+
+def test_perturbations_can_make_a_transfer_exist_that_does_not_without_them(tmp_path, capsys):
+    """E9's LEO orbits over 10 revolutions, ΔΩ scaled with the count (−2.39°): unperturbed, the
+    plane change must be thrust and T_min is 5.3 N, so no 1 N transfer; with J2 the node's
+    precession makes it and T_min is 0.056 N (spaceopt.studies.existence). The CLI gives both
+    verdicts and solves the perturbed OT by the chain with the perturbations on (LP too,
+    --lp-perturbed). At ε_f 1e-3: at 1e-5 the final polish of this short-burn transfer stops at
+    |F| 1.2e-5 (measured)."""
+    rc = cli.main(["solve", "--initial", "a_km=7792,e=0.000138,i_deg=51.99,raan_deg=256.65,argp_deg=0",
+                   "--final", "a_km=7792,e=0.0002,i_deg=52,raan_deg=254.26", "--m0-kg", "1000", "--isp-s", "1500",
+                   "--thrust-n", "1", "--n-rev", "10", "--l0-deg", "301.65", "--geopotential", "j2",
+                   "--epoch-utc", "2021-05-09T12:00:00", "--lp-perturbed", "--eps-final", "1e-3", "--quiet",
+                   "--out", str(tmp_path)])
+    out = capsys.readouterr().out
+    assert rc == 0
+    verdicts = json.loads((tmp_path / "verdict.json").read_text())
+    assert not verdicts["verdict"]["exists"] and verdicts["verdict"]["T_min_N"] > 5.0
+    assert verdicts["verdict_perturbed"]["exists"] and verdicts["verdict_perturbed"]["T_min_N"] < 0.1
+    assert "no transfer over 10 revolutions" in out and "perturbed: transfer exists" in out
+    tmin = json.loads((tmp_path / "tmin_perturbed.json").read_text())
+    assert tmin["model"]["kind"] == "tmin" and tmin["extra"]["lp_perturbed"] is True
+    assert not (tmp_path / "ot.json").exists()
+    pert = json.loads((tmp_path / "ot_perturbed.json").read_text())
+    assert pert["solver"]["final_residual"] < 1e-8 and pert["extra"]["perturbations"]["geopotential"] == "j2"
+    assert 0 < 1000 - pert["scalars"]["m_f_kg"] < 1.0 and pert["scalars"]["burn_fraction"] < 0.2

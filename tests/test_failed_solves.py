@@ -57,6 +57,7 @@ def test_the_paper_names_each_failure_with_its_reason():
     assert "E8 j2 at 450 revolutions (no convergence)" in text
     assert "E8 g44 at 450 revolutions (starts from j2 at 450 revolutions, which failed)" in text
     assert FS.failures_sentence({}, {}) == ""
+    assert "the minimum thrust of E7 j2 (fold)" in FS.failures_sentence({}, {}, {("e7", "j2"): "fold"})
 
 
 def test_the_paper_section_carries_the_failures_escaped_for_latex():

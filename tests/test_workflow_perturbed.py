@@ -161,11 +161,12 @@ def test_the_heavier_extremals_of_the_envelope_are_saved_verified_and_split_by_f
 
 
 def test_the_report_pass_leaves_out_the_failed_solves_and_those_that_start_from_them(tmp_path, monkeypatch):
-    """SPACEOPT_REPORT_FAILED=1 (the second pass of ./dev reproduce): an E6 date and an E8 solve
-    whose artifact is missing and whose failure.json is there are not planned again, nor the
-    solves that start from them (E6: start_from; E8: the later models at that count), and the
-    tables and paper are planned without them. Without the variable they are planned as usual."""
-    for stem in ("e6/2021-05-17", "e8/j2_n450"):
+    """SPACEOPT_REPORT_FAILED=1 (the second pass of ./dev reproduce): an E6 date, an E8 solve and
+    a minimum-thrust solve whose artifact is missing and whose failure.json is there are not
+    planned again, nor the solves that start from them (E6: start_from; E8: the later models at
+    that count), and the tables and paper are planned without them. Without the variable they
+    are planned as usual."""
+    for stem in ("e6/2021-05-17", "e8/j2_n450", "e9/tmin_g44"):
         path = tmp_path / "perturbed" / f"{stem}.failure.json"
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text('{"error": "no convergence (test)"}')
@@ -175,6 +176,7 @@ def test_the_report_pass_leaves_out_the_failed_solves_and_those_that_start_from_
     assert rc == 0, out[-2000:]
     assert f"{tmp_path}/perturbed/e6/2021-05-18.json" in planned_inputs(out, "perturbed_e6_date")
     assert f"{tmp_path}/perturbed/e8/g44_n450.json" in planned_inputs(out, "perturbed_e8")
+    assert f"{tmp_path}/perturbed/e9/tmin_g44.json" in planned_inputs(out, "perturbed_existence")
     monkeypatch.setenv("SPACEOPT_REPORT_FAILED", "1")
     rc, out = smk(*args)
     assert rc == 0, out[-2000:]
@@ -187,3 +189,7 @@ def test_the_report_pass_leaves_out_the_failed_solves_and_those_that_start_from_
     tables = next(iter(planned_inputs(out, "perturbed_tables").values()))
     assert not any(f"/e6/{d}.json" in i for d in left for i in tables)
     assert not any(i.endswith(("/e8/j2_n450.json", "/e8/g44_n450.json")) for i in tables)
+    existence = {Path(o).stem for o in planned_inputs(out, "perturbed_existence")}     # the minimum-thrust check
+    assert "tmin_g44_moon_sun" in existence and "tmin_g44" not in existence
+    assert not any(i.endswith("/e9/tmin_g44.json") for i in planned_inputs(out, "perturbed_existence_table")[
+        f"{tmp_path}/perturbed/existence.csv"])

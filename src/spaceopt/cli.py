@@ -8,9 +8,13 @@ Example (dissertation §4.1 E1)::
                    --n-rev 2 --l0-deg 300 --out results/user/e1
 
 With ``--geopotential j2|4x4`` and/or ``--third-bodies moon,sun`` and a departure epoch
-``--epoch-utc``, the unperturbed OT solution is continued into the perturbed problem: the
-perturbations are switched on by τ and the path followed in arclength
-(:func:`spaceopt.studies.perturbed.perturb_from_unperturbed`, the route of the §4.2 studies);
+``--epoch-utc``, the existence check is made again with the perturbations on (the minimum thrust
+of the perturbed problem, :mod:`spaceopt.studies.existence`; ``tmin_perturbed.json``), and the
+perturbed OT solution is computed where it exists: from the unperturbed OT solution, the
+perturbations switched on by τ and the path followed in arclength
+(:func:`spaceopt.studies.perturbed.perturb_from_unperturbed`, the route of the §4.2 studies), or,
+where only the perturbed transfer exists (J2 can make a plane change possible), by the chain from
+the zero guess with the perturbations on (``--lp-perturbed``: in its LP too, as E9);
 a DE405 window for the Moon and the Sun is cut for the transfer (``ephemeris.json``).
 
 Orbit elements carry their units in the key names. Exit status: 0 when the chain finished
@@ -99,6 +103,9 @@ def build_parser():
     s.add_argument("--third-bodies", default="", help="comma list of moon, sun (DE405)")
     s.add_argument("--epoch-utc", help="departure epoch, e.g. 2021-05-09T12:00:00 (needed with perturbations)")
     s.add_argument("--earth-angle", default="era", help="era | gast: Earth rotation of the geopotential")
+    s.add_argument("--lp-perturbed", action="store_true",
+                   help="solve the perturbed chains' LP with the perturbations on (as E9 does: J2's node "
+                        "precession makes the plane change)")
     s.add_argument("--out", default="results/user")
     s.add_argument("--quiet", action="store_true")
     return p
@@ -109,7 +116,7 @@ def solve(args) -> int:
     from .indirect import chain
     from .indirect.continuation import ContinuationOptions
     from .indirect.transfer import Transfer
-    from .studies import multirev, perturbed
+    from .studies import existence, multirev, perturbed
     from . import artifacts
 
     try:
@@ -130,19 +137,33 @@ def solve(args) -> int:
         lp = chain.solve_lp(tr, opts)
         multirev.save(lp, out / "lp.json", cfg, time.perf_counter() - t0)
         tm = chain.solve_tmin(lp, opts)
-        multirev.save(tm, out / "tmin.json", cfg, time.perf_counter() - t0)
+        tm_tof_days = multirev.save(tm, out / "tmin.json", cfg, time.perf_counter() - t0)["scalars"]["tof_days"]
         verdict = chain.existence_verdict(tm, tr.thrust)
-        artifacts.write_json(out / "verdict.json", {"verdict": verdict, "provenance": artifacts.provenance(cfg)})
+        verdicts = {"verdict": verdict}
         print(verdict["message"])
-        if not verdict["exists"]:
-            return 0
-        ot = chain.solve_ot(lp, tr.thrust, opts)
-        sc = multirev.save(ot, out / "ot.json", cfg, time.perf_counter() - t0)["scalars"]
-        print(json.dumps({k: sc[k] for k in SCALARS}, indent=1))
         if perturbations:
+            # the existence check with the perturbations on (spaceopt.studies.existence): the
+            # perturbations can make a transfer possible that is not without them (E9: J2 makes the
+            # plane change), or the reverse; the ephemeris window is cut for the slowest transfer,
+            # the unperturbed T_min one
             tr_p = dataclasses.replace(tr, perturbations=perturbations, epoch_utc=epoch,
-                                       ephemeris=_ephemeris_window(perturbations, epoch, sc["tof_days"], out, cfg))
-            pert = perturbed.perturb_from_unperturbed(ot, tr_p, "perturbed", options=opts)
+                                       ephemeris=_ephemeris_window(perturbations, epoch, tm_tof_days, out, cfg))
+            tm_p, verdicts["verdict_perturbed"] = existence.solve(tr_p, "perturbed", lp_perturbed=args.lp_perturbed,
+                                                                  options=opts)
+            perturbed.save(tm_p, out / "tmin_perturbed.json", cfg, time.perf_counter() - t0, tm_p.extra)
+            print("perturbed: " + verdicts["verdict_perturbed"]["message"])
+        artifacts.write_json(out / "verdict.json", {**verdicts, "provenance": artifacts.provenance(cfg)})
+        if not verdict["exists"] and not (perturbations and verdicts["verdict_perturbed"]["exists"]):
+            return 0
+        if verdict["exists"]:
+            ot = chain.solve_ot(lp, tr.thrust, opts)
+            sc = multirev.save(ot, out / "ot.json", cfg, time.perf_counter() - t0)["scalars"]
+            print(json.dumps({k: sc[k] for k in SCALARS}, indent=1))
+        if perturbations and verdicts["verdict_perturbed"]["exists"]:
+            # from the unperturbed extremal where there is one, else by the chain from the zero
+            # guess with the perturbations on (the route of the §4.2 E9 solves)
+            pert = (perturbed.perturb_from_unperturbed(ot, tr_p, "perturbed", options=opts) if verdict["exists"]
+                    else perturbed.solve_for(tr_p, "perturbed", lp_perturbed=args.lp_perturbed, options=opts)[1])
             sc = perturbed.save(pert, out / "ot_perturbed.json", cfg, time.perf_counter() - t0)["scalars"]
             print("perturbed:")
             print(json.dumps({k: sc[k] for k in SCALARS}, indent=1))

@@ -120,10 +120,11 @@ def pt_e8_source(n, model):
 # The second pass of ./dev reproduce (environment SPACEOPT_REPORT_FAILED=1) leaves out the E6 dates and the
 # E8 solves that failed in the first, with the solves that start from them, so that the tables,
 # figures and paper are built from what converged (spaceopt.studies.failed_solves).
-PT_FAILED = {"e6": {}, "e8": {}}
-if os.environ.get("SPACEOPT_REPORT_FAILED") == "1":
+REPORT_FAILED = os.environ.get("SPACEOPT_REPORT_FAILED") == "1"
+PT_FAILED = {"e6": {}, "e8": {}, "existence": {}}
+if REPORT_FAILED:
     _scan_days = {d[:10] for d in scan_dates(PT["e6"])}
-    PT_FAILED = {
+    PT_FAILED |= {
         "e6": left_out(scan_run_dates(PT), lambda d: scan_source(PT, d) if scan_source(PT, d) in _scan_days else None,
                        lambda d: diagnosis(f"{PTDIR}/e6/{d}.json")) if "e6" in PT["run"] else {},
         "e8": left_out(e8_runs(PT), lambda r: pt_e8_start(*r),
@@ -313,8 +314,13 @@ def pt_stage_jsons():
 
 
 def pt_verify_samples(w):
-    """The E6 dates are re-sampled from their unknowns for the check (perturbed.e6.verify_samples_per_rev)."""
-    return E6.get("verify_samples_per_rev") if w.solve.startswith("e6/") else None
+    """The E6 dates and the minimum-thrust solves are re-sampled from their unknowns for the check
+    (perturbed.e6.verify_samples_per_rev, perturbed.existence.verify_samples_per_rev)."""
+    if w.solve.startswith("e6/"):
+        return E6.get("verify_samples_per_rev")
+    if "/tmin_" in w.solve:
+        return (PT.get("existence") or {}).get("verify_samples_per_rev")
+    return None
 
 
 rule perturbed_verify:
@@ -330,8 +336,9 @@ rule perturbed_verify:
 
 
 def pt_verify_files():
-    """The independent Cartesian re-propagation of every solve the tables take."""
-    return sorted({p.replace(".json", ".verify.json") for p in pt_stage_jsons().values()})
+    """The independent Cartesian re-propagation of every solve the tables take, and of the
+    minimum-thrust solves of the existence check."""
+    return sorted({p.replace(".json", ".verify.json") for p in [*pt_stage_jsons().values(), *pt_existence_files()]})
 
 
 # What each force contributes to the change of h and E along every perturbed solve of the listed
@@ -373,6 +380,44 @@ rule perturbed_force_shares_table:
     output: table=f"{PTDIR}/force_shares.csv", by_revolution=f"{PTDIR}/force_shares_by_revolution.csv"
     log: f"{PTDIR}/logs/force_shares.log"
     script: "../scripts/force_shares_table.py"
+
+
+# Does the transfer exist with the perturbations on? The minimum-thrust problem of each listed case
+# under the unperturbed model and each of the case's models, from the zero guess
+# (spaceopt.studies.existence; perturbed.existence, null: off)
+EX_CASES = [c for c in (PT.get("existence") or {}).get("cases", []) if c in PT["run"]]
+
+
+EX_RUNS = [(c, m) for c in EX_CASES for m in dict.fromkeys(["unperturbed", *PT["cases"][c]["models"]])]
+if REPORT_FAILED:        # the report pass: minimum-thrust solves that failed are left out (failed_solves)
+    PT_FAILED["existence"] = left_out(EX_RUNS, lambda r: None, lambda r: diagnosis(f"{PTDIR}/{r[0]}/tmin_{r[1]}.json"))
+
+
+def pt_existence_files():
+    """The minimum-thrust artifacts: per listed case, unperturbed first, then the case's models
+    (less those left out by the report pass)."""
+    return [f"{PTDIR}/{c}/tmin_{m}.json" for c, m in EX_RUNS if (c, m) not in PT_FAILED["existence"]]
+
+
+EX_TABLE = [f"{PTDIR}/existence.csv"] if pt_existence_files() else []
+
+
+rule perturbed_existence:
+    input: src=PT_SRC + lib_sources("studies/existence"), eph=lambda w: pt_ephemeris(w.case, w.model)
+    output: pt_files("{case}/tmin_{model}")
+    wildcard_constraints: case="e5|e7|e9", model="|".join(sorted(PT["models"]))
+    params: cfg=lambda w: pt_config_for(w.case, w.model), case="{case}", model="{model}", results=RESULTS
+    log: f"{PTDIR}/logs/{{case}}_tmin_{{model}}.log"
+    benchmark: f"{PTDIR}/benchmarks/{{case}}_tmin_{{model}}.tsv"
+    resources: mem_mb=4000, runtime=60
+    script: "../scripts/perturbed_existence.py"
+
+
+rule perturbed_existence_table:
+    input: tmin=pt_existence_files(), _src=lib_sources("studies/existence")
+    output: f"{PTDIR}/existence.csv"
+    log: f"{PTDIR}/logs/existence.log"
+    script: "../scripts/perturbed_existence_table.py"
 
 
 PT_TABLES = ["e5", "e6_date_scan", "e7", "e8", "e9"]
@@ -425,14 +470,14 @@ rule perturbed_paper_section:
            budget=f"{PTDIR}/e9_budget.json",
            figures=[f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()],
            families=E6_FAMILIES, walks=E6_WALKS_CSV, envelope=E6_ENVELOPE, heavier=E6_HEAVIER, force_shares=FS_TABLE,
-           force_shares_by_revolution=FS_BY_REVOLUTION, **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},
+           force_shares_by_revolution=FS_BY_REVOLUTION, existence=EX_TABLE, **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},
            _src=lib_sources("studies/perturbed_report", "studies/scan_families", "studies/scan_walks",
-                            "studies/force_shares")
+                            "studies/force_shares", "studies/existence")
     output: f"{PTDIR}/paper_section.tex"
     params: run=PT["run"], results=RESULTS, e8_count_start=e8_count_start(PT), e8_smoothing=e8_smoothing(PT),
             e6_skipped=config["perturbed"]["e6"].get("skip_dates") or [],
             e8_skipped=e8_skipped(config["perturbed"]) if "e8" in PT["run"] else [],
-            failures=failures_sentence(PT_FAILED["e6"], PT_FAILED["e8"]),
+            failures=failures_sentence(**PT_FAILED),
             e8_steps=e8_model_steps(PT), e6_dates=E6_DATES, e6_links=E6_LINKS
     log: f"{PTDIR}/logs/paper_section.log"
     script: "../scripts/perturbed_paper_section.py"
@@ -440,4 +485,4 @@ rule perturbed_paper_section:
 
 ALL_TARGETS += [f"{PTDIR}/{t}.csv" for t in PT_TABLES] + [
     f"{PTDIR}/reproduction.csv", f"{PTDIR}/paper_section.tex", f"{PTDIR}/e9_budget.json"] + [
-    f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()] + E6_FAMILIES + E6_ENVELOPE + E6_HEAVIER + FS_TABLE + FS_BY_REVOLUTION
+    f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()] + E6_FAMILIES + E6_ENVELOPE + E6_HEAVIER + FS_TABLE + FS_BY_REVOLUTION + EX_TABLE

@@ -8,6 +8,7 @@ from _step import run_step  # noqa: E402
 from spaceopt import artifacts  # noqa: E402
 from spaceopt.report.tables import read_csv as _read  # noqa: E402
 from spaceopt.studies import perturbed_report as R, scan_families as F, scan_walks as W  # noqa: E402
+from spaceopt.studies.existence import sentence as existence_sentence  # noqa: E402
 from spaceopt.studies.force_shares import shares_sentence  # noqa: E402
 
 
@@ -35,7 +36,9 @@ def main(sm):
                                                   force_shares=shares_sentence(
                                                       _read(sm.input.force_shares[0]), unp and unp["m_f_kg"],
                                                       _read(sm.input.force_shares_by_revolution[0]))
-                                                  if sm.input.force_shares else ""))
+                                                  if sm.input.force_shares else "",
+                                                  existence=existence_sentence(_read(sm.input.existence[0]), R.MODEL_TEX)
+                                                  if sm.input.existence else ""))
 
 
 if __name__ == "__main__":

@@ -14,7 +14,8 @@ then built from what converged, the paper names each failure with its diagnosis,
 ``./dev reproduce`` still exits non-zero. The next ``./dev reproduce`` (without the flag) retries
 the failed solves.
 
-Not covered: the E5, E7 and E9 solves (their tables take every model of the case) and the other
+The minimum-thrust solves of the existence check (:mod:`spaceopt.studies.existence`) are left
+out the same way. Not covered: the E5, E7 and E9 solves (their tables take every model of the case) and the other
 studies; a failure there still holds the report back.
 """
 from __future__ import annotations
@@ -68,10 +69,12 @@ def without_failed(pc: dict, e6: dict, e8: dict) -> dict:
     return {**pc, "e6": {**pc["e6"], "skip_dates": skip_dates}, "e8": {**pc["e8"], "skip_n_rev": skip_n_rev}}
 
 
-def failures_sentence(e6: dict, e8: dict) -> str:
-    """Plain text for the paper: what failed in this run and was left out, with the reasons."""
+def failures_sentence(e6: dict, e8: dict, existence: dict | None = None) -> str:
+    """Plain text for the paper: what failed in this run and was left out, with the reasons
+    (``existence``: {(case, model): reason} of the minimum-thrust check)."""
     items = [f"E6 {d} ({why})" for d, why in sorted(e6.items())]
     items += [f"E8 {m} at {n:g} revolutions ({why})" for (m, n), why in sorted(e8.items())]
+    items += [f"the minimum thrust of {c.upper()} {m} ({why})" for (c, m), why in sorted((existence or {}).items())]
     if not items:
         return ""
     return ("Failed in this run and left out of the tables and figures (each diagnosis is in the "

@@ -438,7 +438,7 @@ def e8_route_text(count_start: str, smoothing: dict, steps: list) -> str:
 def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figures: list, *,
                   e8_count_start: str, smoothing: dict, e8_steps: list, verify_rows=(), tof_rows=(),
                   e8_skipped=(), failures: str = "", e6_families: str = "", force_shares: str = "",
-                  resultsdir_macro=r"\resultsdir") -> str:
+                  existence: str = "", resultsdir_macro=r"\resultsdir") -> str:
     """LaTeX fragment of the §4.2 section; every number comes from the artifacts or the config.
     ``e8_count_start``, ``smoothing``, ``e8_steps``: how each E8 count and model starts
     (:func:`e8_route_text`); ``verify_rows``: the independent re-propagations
@@ -451,7 +451,8 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
     (:func:`spaceopt.studies.scan_families.families_sentence`,
     :func:`spaceopt.studies.scan_walks.envelope_sentence`; plain text); ``force_shares``: what each
     force contributes to the change of the orbit (:func:`spaceopt.studies.force_shares.shares_sentence`;
-    plain text)."""
+    plain text); ``existence``: the minimum thrust under each force model
+    (:func:`spaceopt.studies.existence.sentence`; LaTeX)."""
     n_pass = sum(r["status"] == "pass" for r in rows)
     n_fail = sum(r["status"] == "fail" for r in rows)
     n_miss = sum(r["status"] == "missing" for r in rows)
@@ -477,7 +478,8 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
              f"and {n_miss} were not produced in this run (Table~\\ref{{tab:scoreboard}}). "
              + verification_sentence(list(verify_rows), "perturbed trajectories (its perturbing accelerations are "
                                      "the solver's force model, evaluated at the re-propagated positions)")
-             + (" " + latex_escape(force_shares) if force_shares else ""), ""]
+             + (" " + latex_escape(force_shares) if force_shares else "")
+             + (" " + existence if existence else ""), ""]
     if budget:
         g = budget["egm96_gm"]
         lines += [r"\subsection{LEO $\Delta\Omega$ budget}",

@@ -38,10 +38,13 @@ def recorded_control(data: dict, smp: dict):
 
     Returns (t_span [s], y0 = (r [m], v [m/s], m [kg]), thrust), with thrust(t, m) ->
     (thrust acceleration δ(S(t)) T/m e(t) [m/s²], mass flow −δ T/c [kg/s]): e(t) and S(t) cubic
-    splines of the samples, δ the smoothed throttle (3.3.2) at ε_f.
+    splines of the samples, δ the smoothed throttle (3.3.2) at ε_f; δ = 1 on a minimum-thrust
+    trajectory (§3.4: the engine never switches off; its samples' S is not an OT switching
+    function: δ(S) of it fell to 0.5–0.7 on E9's and lost 0.4 kg of its 1.06 kg of propellant).
     """
     tr = data["transfer"]
     T, c, eps = data["thrust_N"], tr["isp"] * 9.80665, tr["eps_final"]
+    always_on = data["model"]["kind"] == "tmin"
     t = smp["t_s"]
     keep = np.concatenate([[True], np.diff(t) > 0])
     t = t[keep]
@@ -50,7 +53,7 @@ def recorded_control(data: dict, smp: dict):
 
     def thrust(tt, m):
         s = S(tt)
-        delta = 0.5 * (1.0 + s / math.sqrt(s * s + C_SMOOTH * eps * eps))
+        delta = 1.0 if always_on else 0.5 * (1.0 + s / math.sqrt(s * s + C_SMOOTH * eps * eps))
         d = e(tt)
         return delta * T / m * (d / np.linalg.norm(d)), -delta * T / c
 

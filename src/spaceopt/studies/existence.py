@@ -1,0 +1,84 @@
+"""Does the transfer exist with the perturbations on? The minimum-thrust check of the §4.2 cases.
+
+The dissertation decides whether a transfer with thrust T exists over a given angular range by
+the minimum-thrust problem (§3.4: fixed angular range, optimal time, T itself the cost; T < T_min
+means no transfer, and about n·T_min/T revolutions would be needed). Its tables give T_min for
+the unperturbed §4.1 cases only. Here the same check is made for each §4.2 case under each force
+model, from the zero guess as the rest of the chain (spec 01-methods §1.7 and §3.3; issue: the
+perturbed LP, T_min and OT chains all start from the zero guess):
+
+1. the LP, with the perturbations on where the case says ``lp_perturbed`` (E9: the node's
+   precession does the plane change, spec 02-multirev §6);
+2. the (3.4.1) homotopy LP → T_min (``chain.solve_tmin``), whose τ also switches the
+   perturbations on; with time-dependent perturbations t is a state and p_t(K_f) = 0 is the
+   optimal-time condition;
+3. the verdict for the case's thrust (``chain.existence_verdict``).
+
+Not in the dissertation; the results are ours (``results/perturbed/existence.csv``).
+"""
+from __future__ import annotations
+
+from ..indirect import chain
+from ..indirect.chain import Solution
+from ..indirect.transfer import Transfer
+
+COLUMNS = ("case", "model", "n_rev", "thrust_N", "T_min_N", "exists", "n_rev_needed", "tof_days", "K_f_deg",
+           "lp_perturbed")
+
+
+def solve(tr: Transfer, label: str, lp_perturbed: bool = False, options=None) -> tuple[Solution, dict]:
+    """The minimum-thrust solution of ``tr`` (perturbed when ``tr`` is) from the zero guess, and
+    the verdict for ``tr.thrust``."""
+    lp = chain.solve_lp(tr, options, label=f"{label}/lp", perturbed=lp_perturbed and tr.perturbed)
+    tm = chain.solve_tmin(lp, options, label=f"{label}/tmin")
+    verdict = chain.existence_verdict(tm, tr.thrust)
+    tm.extra.update({"verdict": verdict, "lp_perturbed": bool(lp_perturbed and tr.perturbed),
+                     "lp": {k: lp.extra[k] for k in ("J_LP_m2s3", "dv_m_s", "tof_s")}})
+    return tm, verdict
+
+
+def row(case: str, model: str, payload: dict) -> dict:
+    """One row of the table from a minimum-thrust artifact."""
+    v, s = payload["extra"]["verdict"], payload["scalars"]
+    return {"case": case, "model": model, "n_rev": v["n_rev"], "thrust_N": v["thrust_N"],
+            "T_min_N": v["T_min_N"], "exists": v["exists"], "n_rev_needed": v["n_rev_needed_estimate"],
+            "tof_days": s["tof_days"], "K_f_deg": s["K_f_deg"], "lp_perturbed": payload["extra"]["lp_perturbed"]}
+
+
+def _exists(row: dict) -> bool:
+    """The verdict of a row, as written (bool) or read back from the CSV (text)."""
+    return row["exists"] is True or str(row["exists"]) == "True"
+
+
+def sentence(rows: list, model_names: dict) -> str:
+    """LaTeX for the paper: T_min per case and model (``model_names``: model key → LaTeX), the
+    change against the unperturbed value (in per cent, or as a factor), and where the verdict for the case's thrust differs
+    between the models. '' without rows."""
+    parts = []
+    for case in dict.fromkeys(r["case"] for r in rows):
+        rs = [r for r in rows if r["case"] == case]
+        base = next((float(r["T_min_N"]) for r in rs if r["model"] == "unperturbed"), None)
+        items = []
+        for r in rs:
+            t, name = float(r["T_min_N"]), model_names.get(r["model"], r["model"])
+            ratio = t / base if base and r["model"] != "unperturbed" else None
+            change = "" if ratio is None else (f" ({100 * (ratio - 1):+.1f}\\,\\%)" if 0.5 < ratio < 2
+                                               else f" ($\\times{ratio:.3g}$)")
+            items.append(f"{name} {t:.4g}~N{change}")
+        text = (f"{case.upper()} ({float(rs[0]['n_rev']):g} revolutions, $T = {float(rs[0]['thrust_N']):g}$~N): "
+                + "; ".join(items))
+        no, yes = [r for r in rs if not _exists(r)], [r for r in rs if _exists(r)]
+        names = lambda group: ", ".join(model_names.get(r["model"], r["model"]) for r in group)  # noqa: E731
+        if no and yes:
+            text += (f"; the thrust is below $T_{{min}}$ for {names(no)} (no transfer over this angular range; "
+                     + ", ".join(f"about {float(r['n_rev_needed']):.0f}" for r in no)
+                     + f" revolutions would be needed) and above it for {names(yes)}")
+        elif no:
+            text += "; the thrust is below $T_{min}$ under every model: no transfer over this angular range"
+        parts.append(text)
+    if not parts:
+        return ""
+    return ("Does the transfer exist with the perturbations on? The minimum-thrust problem (\\S3.4: fixed angular "
+            "range, optimal time) of each case under each force model, from the zero guess (the LP, then the "
+            "(3.4.1) homotopy, which switches the perturbations on; not in the dissertation, whose tables give "
+            "$T_{min}$ of unperturbed cases only) gives $T_{min}$: " + ". ".join(parts) + ".")
