@@ -117,15 +117,16 @@ def pt_e8_source(n, model):
     return None if start is None else f"{start[0]}_n{_pt_fmt(start[1])}"
 
 
-# The second pass of ./dev reproduce (environment SPACEOPT_REPORT_FAILED=1) leaves out the E6 dates and the
-# E8 solves that failed in the first, with the solves that start from them, so that the tables,
-# figures and paper are built from what converged (spaceopt.studies.failed_solves).
+# The second pass of ./dev reproduce (environment SPACEOPT_REPORT_FAILED=1) leaves out the E6 dates,
+# the E8 solves (and, below, the minimum-thrust solves) that failed in the first, with the solves
+# that start from them, so that the tables, figures and paper are built from what converged
+# (spaceopt.studies.failed_solves).
 REPORT_FAILED = os.environ.get("SPACEOPT_REPORT_FAILED") == "1"
 PT_FAILED = {"e6": {}, "e8": {}, "existence": {}}
 if REPORT_FAILED:
     _scan_days = {d[:10] for d in scan_dates(PT["e6"])}
     PT_FAILED |= {
-        "e6": left_out(scan_run_dates(PT), lambda d: scan_source(PT, d) if scan_source(PT, d) in _scan_days else None,
+        "e6": left_out(scan_run_dates(PT), lambda d: s if (s := scan_source(PT, d)) in _scan_days else None,
                        lambda d: diagnosis(f"{PTDIR}/e6/{d}.json")) if "e6" in PT["run"] else {},
         "e8": left_out(e8_runs(PT), lambda r: pt_e8_start(*r),
                        lambda r: diagnosis(f"{PTDIR}/e8/{r[0]}_n{_pt_fmt(r[1])}.json"),
@@ -386,8 +387,6 @@ rule perturbed_force_shares_table:
 # under the unperturbed model and each of the case's models, from the zero guess
 # (spaceopt.studies.existence; perturbed.existence, null: off)
 EX_CASES = [c for c in (PT.get("existence") or {}).get("cases", []) if c in PT["run"]]
-
-
 EX_RUNS = [(c, m) for c in EX_CASES for m in dict.fromkeys(["unperturbed", *PT["cases"][c]["models"]])]
 if REPORT_FAILED:        # the report pass: minimum-thrust solves that failed are left out (failed_solves)
     PT_FAILED["existence"] = left_out(EX_RUNS, lambda r: None, lambda r: diagnosis(f"{PTDIR}/{r[0]}/tmin_{r[1]}.json"))
