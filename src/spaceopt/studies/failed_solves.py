@@ -15,8 +15,9 @@ then built from what converged, the paper names each failure with its diagnosis,
 the failed solves.
 
 The minimum-thrust solves of the existence check (:mod:`spaceopt.studies.existence`) are left
-out the same way. Not covered: the E5, E7 and E9 solves (their tables take every model of the case) and the other
-studies; a failure there still holds the report back.
+out the same way. Not covered: the E5, E7 and E9 solves (their tables take every model of the
+case, and dropping a model from the case would change the params of its other solves) and the
+other studies; a failure there still holds the report back.
 """
 from __future__ import annotations
 
