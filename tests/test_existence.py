@@ -31,5 +31,5 @@ def test_the_sentence_gives_each_change_and_where_the_verdict_turns():
     assert "E5 (5 revolutions, $T = 0.5$~N): unperturbed 0.2002~N; 4$\\times$4 + Moon + Sun 0.2152~N (+7.5\\,\\%)" in text
     assert text.count("below $T_{min}$") == 1                     # E5 exists under both models
     none = E.sentence([{**rows[0], "exists": "False"}, {**rows[1], "exists": "False"}], MODEL_TEX)
-    assert "below $T_{min}$ under every model" in none
+    assert "below $T_{min}$ for unperturbed, $J_2$: no transfer over this angular range" in none
     assert E.sentence([], MODEL_TEX) == ""

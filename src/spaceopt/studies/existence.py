@@ -74,7 +74,7 @@ def sentence(rows: list, model_names: dict) -> str:
                      + ", ".join(f"about {float(r['n_rev_needed']):.0f}" for r in no)
                      + f" revolutions would be needed) and above it for {names(yes)}")
         elif no:
-            text += "; the thrust is below $T_{min}$ under every model: no transfer over this angular range"
+            text += f"; the thrust is below $T_{{min}}$ for {names(no)}: no transfer over this angular range"
         parts.append(text)
     if not parts:
         return ""
