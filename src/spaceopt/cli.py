@@ -153,13 +153,14 @@ def solve(args) -> int:
             perturbed.save(tm_p, out / "tmin_perturbed.json", cfg, time.perf_counter() - t0, tm_p.extra)
             print("perturbed: " + verdicts["verdict_perturbed"]["message"])
         artifacts.write_json(out / "verdict.json", {**verdicts, "provenance": artifacts.provenance(cfg)})
-        if not verdict["exists"] and not (perturbations and verdicts["verdict_perturbed"]["exists"]):
+        perturbed_exists = bool(perturbations) and verdicts["verdict_perturbed"]["exists"]
+        if not verdict["exists"] and not perturbed_exists:
             return 0
         if verdict["exists"]:
             ot = chain.solve_ot(lp, tr.thrust, opts)
             sc = multirev.save(ot, out / "ot.json", cfg, time.perf_counter() - t0)["scalars"]
             print(json.dumps({k: sc[k] for k in SCALARS}, indent=1))
-        if perturbations and verdicts["verdict_perturbed"]["exists"]:
+        if perturbed_exists:
             # from the unperturbed extremal where there is one, else by the chain from the zero
             # guess with the perturbations on (the route of the §4.2 E9 solves)
             pert = (perturbed.perturb_from_unperturbed(ot, tr_p, "perturbed", options=opts) if verdict["exists"]

@@ -32,7 +32,7 @@ def solve(tr: Transfer, label: str, lp_perturbed: bool = False, options=None) ->
     lp = chain.solve_lp(tr, options, label=f"{label}/lp", perturbed=lp_perturbed and tr.perturbed)
     tm = chain.solve_tmin(lp, options, label=f"{label}/tmin")
     verdict = chain.existence_verdict(tm, tr.thrust)
-    tm.extra.update({"verdict": verdict, "lp_perturbed": bool(lp_perturbed and tr.perturbed),
+    tm.extra.update({"verdict": verdict, "lp_perturbed": lp.shooting.model.perturbed,
                      "lp": {k: lp.extra[k] for k in ("J_LP_m2s3", "dv_m_s", "tof_s")}})
     return tm, verdict
 
