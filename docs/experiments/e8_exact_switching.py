@@ -77,7 +77,7 @@ class ExactSwitching:
     def __init__(self, sh: S.Shooting, prm: dict, grid: float, tau: float = 1.0):
         self.sh, self.grid, self.n = sh, grid, sh.model.n
         self.prm = {**prm, "eps_final": 0.0}        # smooth_delta(S, 0) = 1[S > 0], dδ/dS = 0
-        self.tau = tau                              # of the model blend 'model' (1 otherwise)
+        self.set_tau(tau)                           # of the model blend 'model' (1 otherwise)
         self.rtol, self.atol = sh.rtol, sh.atol
         model, n = sh.model, self.n
 
@@ -92,8 +92,7 @@ class ExactSwitching:
             return hm.switching_ot(K, y[:n], y[n:], prm)
 
         def controller():
-            return diffrax.PIDController(rtol=self.rtol, atol=self.atol,
-                                         norm=lambda e: jnp.sqrt(jnp.mean((e[0] if isinstance(e, tuple) else e) ** 2)))
+            return diffrax.PIDController(rtol=self.rtol, atol=self.atol, norm=flow._primal_rms)
 
         @jax.jit
         def arc(K0, K1, y0, delta, prm):
@@ -151,7 +150,6 @@ class ExactSwitching:
             return Phi + jnp.outer(gm - gp, -(S_y @ Phi) / (S_K + S_y @ gm))
 
         self.g, self.switching = jax.jit(g), jax.jit(switching)
-        self.prm["tau"] = jnp.asarray(tau, dtype=float)
         self._arc, self._sampled, self._bisect, self._restep = arc, sampled, bisect, restep
         self._arc_sens, self._saltation = arc_with_sensitivities, saltation
 
@@ -225,6 +223,12 @@ class ExactSwitching:
         f = jnp.concatenate([jnp.atleast_1d(r0), r_term])
         J = jnp.concatenate([dr0_dz[None, :], J_term], axis=0)
         return f, J, yf, (steps1, steps2), len(Ks), sampled
+
+
+def against(y_ref, yf, units):
+    """(Δm_p in kg, Δt in days) of the trajectory ending in ``yf`` against the one ending in ``y_ref``."""
+    return ((float(y_ref[hm.MASS]) - float(yf[hm.MASS])) * units["mass_kg"],
+            (float(yf[hm.TIME]) - float(y_ref[hm.TIME])) * units["time_s"] / 86400)
 
 
 def timed(fn, *args):
@@ -332,11 +336,8 @@ def model_path(frm: str, to: str, n: float, points: int, grid: float):
             return
         z_prev, z = z, z_new
     total = time.perf_counter() - start
-    _, _, prm_ref = load(to, n)
-    y_ref, _ = S.final_state(sh_to, jnp.asarray(art_to["z"]), 1.0, prm_ref)
-    units = art_to["units"]
-    dm = (float(y_ref[hm.MASS]) - float(yf[hm.MASS])) * units["mass_kg"]
-    dt = (float(yf[hm.TIME]) - float(y_ref[hm.TIME])) * units["time_s"] / 86400
+    y_ref, _ = S.final_state(sh_to, jnp.asarray(art_to["z"]), 1.0, prm_to)
+    dm, dt = against(y_ref, yf, art_to["units"])
     print(f"{frm} → {to} at {n:g} rev: {jacobians} Jacobians, {total:.0f} s; against the DAG's ε_f artifact: "
           f"m_p {dm:+.2e} kg, Δt {dt:+.2e} d, max |Δz| {float(jnp.max(jnp.abs(z - jnp.asarray(art_to['z'])))):.1e}")
 
@@ -355,10 +356,9 @@ def jump(model_name: str, n: float, eps_list: str, grid: float):
         print(f"ε_f → ε {eps:g}: {sol.stats.get('jacobian_evaluations')} Jacobians, {time.perf_counter() - t0:.0f} s",
               flush=True)
         z, fmax, its, n_sw, yf, t = corrector(ex, jnp.asarray(sol.z), 1e-8, max_iterations=10)
-        units = art["units"]
+        dm, dt = against(y_ref, yf, art["units"])
         print(f"  Newton at ε = 0 from there: |F|max {fmax:.1e} after {its} Jacobians ({t:.0f} s), {n_sw} switches; "
-              f"against the ε_f root m_p {(float(y_ref[hm.MASS]) - float(yf[hm.MASS])) * units['mass_kg']:+.2e} kg, "
-              f"Δt {(float(yf[hm.TIME]) - float(y_ref[hm.TIME])) * units['time_s'] / 86400:+.2e} d", flush=True)
+              f"against the ε_f root m_p {dm:+.2e} kg, Δt {dt:+.2e} d", flush=True)
 
 
 if __name__ == "__main__":
