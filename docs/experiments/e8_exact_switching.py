@@ -37,6 +37,7 @@ Subcommands (run from the project root, results/ holding the E8 artifacts):
     model  FROM TO N STEPS [GRID]   the force-model blend FROM → TO (chain.continue_in_model) at
                             ε = 0: τ in STEPS uniform steps from FROM's artifact, secant predictor,
                             Newton corrector; the end point against TO's artifact
+    rescue MODEL N CHECKPOINT [GRID]   Newton at ε = 0 from a failed solve's path checkpoint (.npz)
 
 Not wired into the pipeline: see docs/perturbed-e6-e7-e8.md, "Thirtieth session".
 """
@@ -62,12 +63,17 @@ SEGMENT_STEPS = 512        # steps per diffeqsolve call of pass 1 (its dense out
 S_NOISE = 1e-10            # |S| of the integration error at a switch (S itself is of order 1e-2 here)
 
 
-def load(model_name: str, n: float, with_transfer: bool = False):
-    art = json.load(open(f"results/perturbed/e8/{model_name}_n{n:g}.json"))
+def problem(model_name: str, n: float):
+    """The E8 OT shooting layout and transfer of ``model_name`` at ``n`` revolutions (config)."""
     pc = yaml.safe_load(open("config/studies/perturbed.yaml"))["perturbed"]
     eph = P.ephemeris_path("results", pc["cases"]["e8"]["ephemeris"])
     tr = P.transfer_from_config(pc, "e8", model_name, n_rev=n, ephemeris=eph)
-    sh = chain.shooting_for("ot", "eps", tr)
+    return chain.shooting_for("ot", "eps", tr), tr
+
+
+def load(model_name: str, n: float, with_transfer: bool = False):
+    art = json.load(open(f"results/perturbed/e8/{model_name}_n{n:g}.json"))
+    sh, tr = problem(model_name, n)
     return (art, sh, tr.params(), tr) if with_transfer else (art, sh, tr.params())
 
 
@@ -304,12 +310,15 @@ def newton(model_name: str, n: float, grid: float, iterations: int = 6):
           f"{float(yf[hm.TIME]) - t0_:+.3e} TU; z change {np.asarray(z - jnp.asarray(art['z']))}")
 
 
-def corrector(ex: ExactSwitching, z, tol: float, max_iterations: int = 8):
+def corrector(ex: ExactSwitching, z, tol: float, max_iterations: int = 8, verbose: bool = False):
     """Newton at the exact problem: the last iterate, |F|max there, Jacobians used, wall time."""
     t0 = time.perf_counter()
     for it in range(max_iterations):
         f, J, yf, steps, n_sw, _ = ex.shoot(z)
         fmax = float(jnp.max(jnp.abs(f)))
+        if verbose:
+            print(f"  iteration {it}: |F|max {fmax:.2e}, {n_sw} switches, |F| by row "
+                  + " ".join(f"{abs(float(v)):.1e}" for v in f), flush=True)
         if fmax < tol:
             return z, fmax, it + 1, n_sw, yf, time.perf_counter() - t0
         z = z - jnp.linalg.solve(J, f)
@@ -361,10 +370,25 @@ def jump(model_name: str, n: float, eps_list: str, grid: float):
               f"against the ε_f root m_p {dm:+.2e} kg, Δt {dt:+.2e} d", flush=True)
 
 
+def rescue(model_name: str, n: float, checkpoint: str, grid: float):
+    """Newton at ε = 0 from a path checkpoint of a failed E8 solve (its first single-shooting
+    block of z, at τ ≈ 1): is there an exact-switching root where the ε_f polish stopped?"""
+    sh, tr = problem(model_name, n)
+    ex = ExactSwitching(sh, tr.params(), grid)
+    z0 = jnp.asarray(np.load(checkpoint)["z"][:sh.size])
+    z, fmax, its, n_sw, yf, t = corrector(ex, z0, 1e-9, max_iterations=6, verbose=True)
+    u = tr.units()
+    print(f"Newton at ε = 0 from {checkpoint}: |F|max {fmax:.1e} after {its} Jacobians ({t:.0f} s), {n_sw} switches; "
+          f"m_p {(1.0 - float(yf[hm.MASS])) * u['mass_kg']:.4f} kg, Δt {float(yf[hm.TIME]) * u['time_s'] / 86400:.4f} d; "
+          f"max |Δz| from the checkpoint {float(jnp.max(jnp.abs(z - z0))):.1e}", flush=True)
+
+
 if __name__ == "__main__":
     command = sys.argv[1]
     if command == "jump":
         jump(sys.argv[2], float(sys.argv[3]), sys.argv[4], float(sys.argv[5]) if len(sys.argv) > 5 else 0.02)
+    elif command == "rescue":
+        rescue(sys.argv[2], float(sys.argv[3]), sys.argv[4], float(sys.argv[5]) if len(sys.argv) > 5 else 0.02)
     elif command == "model":
         frm, to, n, points = sys.argv[2], sys.argv[3], float(sys.argv[4]), int(sys.argv[5])
         model_path(frm, to, n, points, float(sys.argv[6]) if len(sys.argv) > 6 else 0.02)
