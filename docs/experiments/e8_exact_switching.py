@@ -37,7 +37,13 @@ Subcommands (run from the project root, results/ holding the E8 artifacts):
     model  FROM TO N STEPS [GRID]   the force-model blend FROM → TO (chain.continue_in_model) at
                             ε = 0: τ in STEPS uniform steps from FROM's artifact, secant predictor,
                             Newton corrector; the end point against TO's artifact
-    rescue MODEL N CHECKPOINT [GRID]   Newton at ε = 0 from a failed solve's path checkpoint (.npz)
+    family MODEL N START TF_FROM TF_TO STEP [GRID]   the fixed-time family on the exact map from a
+                            saved solution: m_f and φ = p_t(K_f) against t_f (days)
+    walk   MODEL N START H POINTS [GRID]   pseudo-arclength along that family on the exact map, through
+                            folds, from a saved solution uphill in m_f: t_f, m_f, φ per point
+    rescue MODEL N START [GRID]   Newton at ε = 0 from a failed solve's path checkpoint (.npz) or
+                            saved solution (.json)
+    -v (anywhere)           prints the corrector's residual by row at every iteration (family, rescue)
 
 Not wired into the pipeline: see docs/perturbed-e6-e7-e8.md, "Thirtieth session".
 """
@@ -59,6 +65,8 @@ import yaml
 from spaceopt.indirect import chain, flow, hamiltonians as hm, shooting as S
 from spaceopt.studies import perturbed as P
 
+VERBOSE = "-v" in sys.argv        # per-iteration residuals of the corrector (family, rescue)
+WALK_TOL = 3e-7           # |F|max of a walk point: the exact map's t(K_f) is noisy at ~1e-7 TU (500 rev)
 SEGMENT_STEPS = 512        # steps per diffeqsolve call of pass 1 (its dense output is sized by it)
 S_NOISE = 1e-10            # |S| of the integration error at a switch (S itself is of order 1e-2 here)
 
@@ -371,24 +379,119 @@ def jump(model_name: str, n: float, eps_list: str, grid: float):
 
 
 def rescue(model_name: str, n: float, checkpoint: str, grid: float):
-    """Newton at ε = 0 from a path checkpoint of a failed E8 solve (its first single-shooting
-    block of z, at τ ≈ 1): is there an exact-switching root where the ε_f polish stopped?"""
+    """Newton at ε = 0 from a path checkpoint of a failed E8 solve (.npz: its first single-shooting
+    block of z, at τ ≈ 1) or from a saved solution (.json: e.g. the end game's start,
+    ``free_time_start.json``): is there an exact-switching root where the ε_f polish stopped?"""
     sh, tr = problem(model_name, n)
     ex = ExactSwitching(sh, tr.params(), grid)
-    z0 = jnp.asarray(np.load(checkpoint)["z"][:sh.size])
-    z, fmax, its, n_sw, yf, t = corrector(ex, z0, 1e-9, max_iterations=6, verbose=True)
+    z0 = jnp.asarray(json.load(open(checkpoint))["z"] if checkpoint.endswith(".json")
+                     else np.load(checkpoint)["z"][:sh.size])
+    z, fmax, its, n_sw, yf, t = corrector(ex, z0, 1e-9, max_iterations=6, verbose=VERBOSE)
     u = tr.units()
     print(f"Newton at ε = 0 from {checkpoint}: |F|max {fmax:.1e} after {its} Jacobians ({t:.0f} s), {n_sw} switches; "
           f"m_p {(1.0 - float(yf[hm.MASS])) * u['mass_kg']:.4f} kg, Δt {float(yf[hm.TIME]) * u['time_s'] / 86400:.4f} d; "
           f"max |Δz| from the checkpoint {float(jnp.max(jnp.abs(z - z0))):.1e}", flush=True)
 
 
+def family(model_name: str, n: float, start: str, tf_from: float, tf_to: float, step: float, grid: float):
+    """The fixed-time family (t(K_f) = t_f replaces p_t(K_f) = 0, the end game's family,
+    :mod:`spaceopt.indirect.free_time`) on the exact map, t_f from ``tf_from`` to ``tf_to`` days in
+    ``step``: per point m_f and φ = p_t(K_f) (dm_f/dt_f = −m₀ φ); Newton from a secant predictor,
+    starting from the saved solution ``start`` (.json). Stops where Newton fails (a fold in t_f)."""
+    sh, tr = problem(model_name, n)
+    sh = dataclasses.replace(sh, fixed_time=True)
+    u = tr.units()
+    ex = ExactSwitching(sh, tr.params(), grid)
+    z_prev, z = None, jnp.asarray(json.load(open(start))["z"])
+    t0 = time.perf_counter()
+    for tf in np.arange(tf_from, tf_to + 0.5 * step, step):
+        ex.prm = {**ex.prm, "tf": jnp.asarray(tf * 86400 / u["time_s"])}
+        guess = z if z_prev is None else 2 * z - z_prev
+        z_new, fmax, its, n_sw, yf, t = corrector(ex, guess, 1e-7, max_iterations=6, verbose=VERBOSE)
+        if fmax > 1e-6:
+            print(f"t_f {tf:.4f} d: Newton failed (|F|max {fmax:.1e} after {its} Jacobians): a fold in t_f, "
+                  "or a step too long", flush=True)
+            return
+        print(f"t_f {tf:.4f} d: m_f {float(yf[hm.MASS]) * u['mass_kg']:.6f} kg, φ {float(yf[sh.model.n + hm.TIME]):+.3e}, "
+              f"{its} Jacobians ({t:.0f} s), {n_sw} switches; {time.perf_counter() - t0:.0f} s in all", flush=True)
+        z_prev, z = z, z_new
+
+
+def walk(model_name: str, n: float, start: str, h: float, points: int, grid: float):
+    """Pseudo-arclength along the fixed-time family on the exact map, x = (z, t_f in days), from
+    the saved solution ``start`` in the direction of rising m_f, ``points`` points of length ``h``
+    (halved on a failed corrector): per point t_f, m_f, φ = p_t(K_f), and where t_f turns (a fold)
+    or φ changes sign (a free-time extremal: a local maximum of m_f in t_f where φ goes from − to +
+    with t_f rising). Through folds whatever φ is: the end game's ``downhill_folds`` walk, cheaper."""
+    sh, tr = problem(model_name, n)
+    sh = dataclasses.replace(sh, fixed_time=True)
+    u = tr.units()
+    day = 86400 / u["time_s"]
+    ex = ExactSwitching(sh, tr.params(), grid)
+    t_row = sh.size - 1                              # t(K_f) − t_f: ∂/∂t_f[d] = −day
+
+    def evaluate(x):
+        ex.prm = {**ex.prm, "tf": jnp.asarray(x[-1] * day)}
+        f, J, yf, _, n_sw, _ = ex.shoot(jnp.asarray(x[:-1]))
+        A = np.zeros((len(f), len(x)))
+        A[:, :-1], A[t_row, -1] = np.asarray(J), -day
+        return np.asarray(f), A, yf, n_sw
+
+    z0 = np.asarray(json.load(open(start))["z"])
+    x = np.append(z0, float(json.load(open(start))["scalars"]["tof_days"]))
+    f, A, yf, n_sw = evaluate(x)
+    for _ in range(6):                               # onto the family at the start's t_f
+        x[:-1] -= np.linalg.solve(A[:, :-1], f)
+        f, A, yf, n_sw = evaluate(x)
+    t = np.linalg.svd(A)[2][-1]
+    t = t * np.sign(t[-1]) * (1.0 if float(yf[sh.model.n + hm.TIME]) < 0 else -1.0)   # m_f rising
+    phi_prev, t0 = float(yf[sh.model.n + hm.TIME]), time.perf_counter()
+    print(f"start t_f {x[-1]:.5f} d: m_f {float(yf[hm.MASS]) * u['mass_kg']:.6f} kg, φ {phi_prev:+.3e}, "
+          f"|F| {np.max(np.abs(f)):.1e}", flush=True)
+    k = 0
+    while k < points:
+        xp = x + h * t
+        xc, ok = xp.copy(), False
+        for it in range(6):
+            f, A, yf, n_sw = evaluate(xc)
+            if np.max(np.abs(f)) < WALK_TOL:
+                ok = True
+                break
+            M = np.vstack([A, t])
+            xc = xc - np.linalg.solve(M, np.append(f, t @ (xc - xp)))
+        if not ok:
+            h *= 0.5
+            print(f"  corrector failed (|F| {np.max(np.abs(f)):.1e}); h → {h:.3g}", flush=True)
+            if h < 1e-6:
+                return
+            continue
+        t_new = np.linalg.svd(A)[2][-1]
+        t_new = t_new * np.sign(t_new @ t)
+        fold = np.sign(t_new[-1]) != np.sign(t[-1])
+        phi = float(yf[sh.model.n + hm.TIME])
+        k += 1
+        print(f"{k:3d} t_f {xc[-1]:.5f} d: m_f {float(yf[hm.MASS]) * u['mass_kg']:.6f} kg, φ {phi:+.3e}, "
+              f"{it + 1} Jacobians, {n_sw} switches{', FOLD in t_f' if fold else ''}"
+              f"{', φ CHANGES SIGN' if np.sign(phi) != np.sign(phi_prev) else ''}; "
+              f"{time.perf_counter() - t0:.0f} s", flush=True)
+        x, t, phi_prev = xc, t_new, phi
+        if it <= 2:
+            h *= 1.5
+
+
 if __name__ == "__main__":
+    sys.argv = [a for a in sys.argv if a != "-v"]
     command = sys.argv[1]
     if command == "jump":
         jump(sys.argv[2], float(sys.argv[3]), sys.argv[4], float(sys.argv[5]) if len(sys.argv) > 5 else 0.02)
     elif command == "rescue":
         rescue(sys.argv[2], float(sys.argv[3]), sys.argv[4], float(sys.argv[5]) if len(sys.argv) > 5 else 0.02)
+    elif command == "family":
+        family(sys.argv[2], float(sys.argv[3]), sys.argv[4], *map(float, sys.argv[5:8]),
+               float(sys.argv[8]) if len(sys.argv) > 8 else 0.02)
+    elif command == "walk":
+        walk(sys.argv[2], float(sys.argv[3]), sys.argv[4], float(sys.argv[5]), int(sys.argv[6]),
+             float(sys.argv[7]) if len(sys.argv) > 7 else 0.02)
     elif command == "model":
         frm, to, n, points = sys.argv[2], sys.argv[3], float(sys.argv[4]), int(sys.argv[5])
         model_path(frm, to, n, points, float(sys.argv[6]) if len(sys.argv) > 6 else 0.02)
