@@ -67,6 +67,7 @@ from spaceopt.studies import perturbed as P
 
 VERBOSE = "-v" in sys.argv        # per-iteration residuals of the corrector (family, rescue)
 WALK_TOL = 3e-7           # |F|max of a walk point: the exact map's t(K_f) is noisy at ~1e-7 TU (500 rev)
+WALK_LAST = "/tmp/e8_walk_last.npy"   # the walk's last point x = (z, t_f in days), for a look at S there
 SEGMENT_STEPS = 512        # steps per diffeqsolve call of pass 1 (its dense output is sized by it)
 S_NOISE = 1e-10            # |S| of the integration error at a switch (S itself is of order 1e-2 here)
 
@@ -475,6 +476,7 @@ def walk(model_name: str, n: float, start: str, h: float, points: int, grid: flo
               f"{', φ CHANGES SIGN' if np.sign(phi) != np.sign(phi_prev) else ''}; "
               f"{time.perf_counter() - t0:.0f} s", flush=True)
         x, t, phi_prev = xc, t_new, phi
+        np.save(WALK_LAST, x)
         if it <= 2:
             h *= 1.5
 
