@@ -16,23 +16,27 @@ towards τ = 0 in arclength, starting on the converged OT:
 
 Where the path stops short of τ = 0 (E7: a fold near τ 1e-4), ``--bound`` polishes the path
 point of least thrust at its own τ. That point is a transfer the dynamics allow, with thrust
-T times a throttle 1 − τ + τ δ ∈ [1 − τ, 1], so it bounds T_min from above.
+T times a throttle 1 − τ + τ δ ∈ [1 − τ, 1], so it bounds T_min from above. ``--verify`` saves it
+as an artifact and re-propagates its recorded control independently (``studies.verify``, with
+δ = 1: the throttle's deficit, at most τ, is left out, an error of that order).
 
 Usage (from the repository root, after ``./dev reproduce`` has built the E7 artifacts):
     python docs/experiments/e7_tmin_from_ot.py [--eps 1e-2] [--weight 1e-5] [--decades 8]
-        [--h-max 0.05] [--max-steps 400] [--bound]
+        [--h-max 0.05] [--max-steps 400] [--bound] [--verify PATH.json]
 """
 import argparse
 import time
 
+import diffrax
 import jax.numpy as jnp
 import numpy as np
 
+from spaceopt.config import load_yaml
 from spaceopt.errors import ConvergenceError
-from spaceopt.indirect import chain, hamiltonians as hm
+from spaceopt.indirect import chain, flow, hamiltonians as hm
 from spaceopt.indirect.continuation import ArclengthContinuation, ArclengthOptions
-from spaceopt.indirect.shooting import final_state, shoot
-from spaceopt.studies import multirev
+from spaceopt.indirect.shooting import final_state, initial_state, shoot
+from spaceopt.studies import multirev, trajectory, verify
 
 
 def tau_of(s, decades):
@@ -75,6 +79,26 @@ def polished_least_thrust(trace, evaluate, tol=1e-6):
     return tau, z, float(jnp.linalg.norm(f))
 
 
+def dense_at(tau):
+    """``chain.dense`` at the homotopy point τ (it samples τ = 1, the OT end of this homotopy)."""
+    def dense(sol, samples_per_rev=200):
+        sh = sol.shooting
+        Ks = jnp.linspace(0.0, sol.K_f, max(int(samples_per_rev * sol.transfer.n_rev), 200))
+        out = flow._solve(lambda K, y, args: flow.field(sh.model, K, y, *args),
+                          initial_state(sh, jnp.asarray(sol.z), sol.prm), 0.0, sol.K_f, (tau, sol.prm),
+                          1e-12, 1e-13, sh.max_steps, diffrax.SaveAt(ts=Ks))
+        return np.asarray(Ks), np.asarray(out.ys)
+    return dense
+
+
+def verified(sol, tau, path, samples_per_rev=2000):
+    """Save ``sol`` (a T_min-layout point at τ) as an artifact and re-propagate its recorded
+    control independently (``studies.verify``: Cartesian, SciPy DOP853, δ = 1 for 'tmin')."""
+    trajectory.dense = dense_at(tau)
+    multirev.save(sol, path, load_yaml("config/studies/perturbed.yaml"), 0.0, samples_per_rev=samples_per_rev)
+    return verify.verify_ot(path)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--model", default="unperturbed")
@@ -85,6 +109,7 @@ def main():
     ap.add_argument("--tol", type=float, default=1e-6, help="corrector tolerance on the path")
     ap.add_argument("--max-steps", type=int, default=400)
     ap.add_argument("--bound", action="store_true", help="where the path stops: polish its least-T point")
+    ap.add_argument("--verify", help="save the end point as this .json artifact and re-propagate it (studies.verify)")
     a = ap.parse_args()
     ot = multirev.load(f"results/perturbed/e7/{a.model}.json")
     tr = ot.transfer
@@ -115,6 +140,9 @@ def main():
           f"m_f {float(yf[hm.MASS]) * u['mass_kg']:.3f} kg, element residuals "
           f"{np.max(np.abs(np.asarray(yf[:5] - prm['xf']))):.1e}; {cont.stats.jacobians} path Jacobians, "
           f"{time.perf_counter() - t0:.0f} s")
+    if a.verify:
+        T = float(z[-1]) * tr.force_unit
+        print("independent re-propagation:", verified(chain.Solution("tmin", sh, z, prm, tr, {}, thrust_N=T), tau, a.verify))
 
 
 if __name__ == "__main__":
