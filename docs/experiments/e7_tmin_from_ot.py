@@ -67,16 +67,21 @@ def reverse(fn, weight, T_ot, decades, trace=None):
     return at
 
 
-def polished_least_thrust(trace, evaluate, tol=1e-6):
-    """The trace's least-T point with |f| < ``tol`` (a point on the path, not a rejected
-    corrector iterate), Newton-polished at its fixed τ: (τ, z, |f|)."""
-    tau, z, _ = min((p for p in trace if p[2] < tol), key=lambda p: p[1][-1])
-    for _ in range(10):
-        f, J, _, _, _ = evaluate(z, tau)
-        if float(jnp.linalg.norm(f)) < 1e-11:
-            break
-        z = z - np.linalg.solve(np.asarray(J), np.asarray(f))
-    return tau, z, float(jnp.linalg.norm(f))
+def polished_least_thrust(trace, evaluate, tol=1e-6, candidates=8):
+    """The path point of least T that Newton polishes at its fixed τ: (τ, z, |f|), or None.
+
+    Only points with |f| < ``tol`` count (on the path, not rejected corrector iterates). They are
+    tried in order of increasing T: at a fold in τ, ∂f/∂z is singular and the fixed-τ Newton
+    can fail on the least-T point (E7 J2)."""
+    on_path = sorted((p for p in trace if p[2] < tol), key=lambda p: p[1][-1])
+    for tau, z, _ in on_path[:candidates]:
+        for _ in range(10):
+            f, J, _, _, _ = evaluate(z, tau)
+            norm = float(jnp.linalg.norm(f))
+            if norm < 1e-11:
+                return tau, z, norm
+            z = z - np.linalg.solve(np.asarray(J), np.asarray(f))
+    return None
 
 
 def dense_at(tau):
@@ -132,7 +137,11 @@ def main():
         if not a.bound:
             return
         fixed_tau = reverse(lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm), a.weight, z0[-1], 0.0)
-        tau, z, norm = polished_least_thrust(trace, lambda zz, t: fixed_tau(zz, 1.0 - t))
+        found = polished_least_thrust(trace, lambda zz, t: fixed_tau(zz, 1.0 - t))
+        if found is None:
+            print("no bound: the fixed-τ Newton converged at none of the least-thrust path points")
+            return
+        tau, z, norm = found
     yf, _ = final_state(sh, jnp.asarray(z), tau, prm)
     u = tr.units()
     print(f"{'T_min' if tau == 0.0 else 'upper bound on T_min'}: T = {float(z[-1]) * tr.force_unit:.6f} N at "
