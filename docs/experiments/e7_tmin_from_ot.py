@@ -15,7 +15,8 @@ towards τ = 0 in arclength, starting on the converged OT:
    E7's units and the path folds at once).
 
 Where the path stops short of τ = 0 (E7: a fold near τ 1e-4), ``--bound`` polishes the path
-point of least thrust at its own τ. That point is a transfer the dynamics allow, with thrust
+point of least thrust at its own τ (the next ones in order of T where that Newton fails,
+:func:`polished_least_thrust`). That point is a transfer the dynamics allow, with thrust
 T times a throttle 1 − τ + τ δ ∈ [1 − τ, 1], so it bounds T_min from above. ``--verify`` saves it
 as an artifact and re-propagates its recorded control independently (``studies.verify``, with
 δ = 1: the throttle's deficit, at most τ, is left out, an error of that order).
@@ -124,11 +125,12 @@ def main():
     prm = {**tr.params(thrust=ot.thrust_N), "eps_blend": jnp.asarray(a.eps)}
     z0 = chain.start_vector(sh, up.costates(), up.K_f, ot.thrust_N / tr.force_unit)
     rtol, atol = chain._path_tolerances(sh)
+    at_end_tolerances = lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm)  # noqa: E731
     trace = []
     cont = ArclengthContinuation(
         reverse(lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm, rtol, atol), a.weight, z0[-1], a.decades, trace),
         ArclengthOptions(h_max=a.h_max, tol_step=a.tol, max_steps=a.max_steps, label="e7 OT->T_min"),
-        polish=reverse(lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm), a.weight, z0[-1], a.decades))
+        polish=reverse(at_end_tolerances, a.weight, z0[-1], a.decades))
     try:
         z, _ = cont.run(z0)
         tau, norm = 0.0, cont.stats.residual
@@ -136,7 +138,7 @@ def main():
         print(f"the path stopped: {exc}")
         if not a.bound:
             return
-        fixed_tau = reverse(lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm), a.weight, z0[-1], 0.0)
+        fixed_tau = reverse(at_end_tolerances, a.weight, z0[-1], 0.0)
         found = polished_least_thrust(trace, lambda zz, t: fixed_tau(zz, 1.0 - t))
         if found is None:
             print("no bound: the fixed-τ Newton converged at none of the least-thrust path points")

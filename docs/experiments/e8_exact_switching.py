@@ -80,6 +80,24 @@ def problem(model_name: str, n: float):
     return chain.shooting_for("ot", "eps", tr), tr
 
 
+def fixed_time_problem(model_name: str, n: float, grid: float):
+    """The exact map of the fixed-time layout (t(K_f) = t_f replaces p_t(K_f) = 0, the end game's
+    family, :mod:`spaceopt.indirect.free_time`) and the transfer's units."""
+    sh, tr = problem(model_name, n)
+    return ExactSwitching(dataclasses.replace(sh, fixed_time=True), tr.params(), grid), tr.units()
+
+
+def saved_start(path: str):
+    """(z, t_f in days) of a saved solution (.json), e.g. the end game's ``free_time_start.json``."""
+    data = json.load(open(path))
+    return np.asarray(data["z"]), float(data["scalars"]["tof_days"])
+
+
+def mass_and_phi(ex, yf, units):
+    """(m_f in kg, φ = p_t(K_f)) of the trajectory ending in ``yf``."""
+    return float(yf[hm.MASS]) * units["mass_kg"], float(yf[ex.n + hm.TIME])
+
+
 def load(model_name: str, n: float, with_transfer: bool = False):
     art = json.load(open(f"results/perturbed/e8/{model_name}_n{n:g}.json"))
     sh, tr = problem(model_name, n)
@@ -94,6 +112,7 @@ class ExactSwitching:
         self.prm = {**prm, "eps_final": 0.0}        # smooth_delta(S, 0) = 1[S > 0], dδ/dS = 0
         self.set_tau(tau)                           # of the model blend 'model' (1 otherwise)
         self.rtol, self.atol = sh.rtol, sh.atol
+        self.time_unit_s = float(prm["tu"])
         model, n = sh.model, self.n
 
         def g(K, y, delta, prm):
@@ -171,6 +190,10 @@ class ExactSwitching:
     def set_tau(self, tau: float):
         self.tau = float(tau)
         self.prm = {**self.prm, "tau": jnp.asarray(tau, dtype=float)}
+
+    def set_tf(self, days: float):
+        """t_f of a fixed-time layout (``Shooting.fixed_time``), in days."""
+        self.prm = {**self.prm, "tf": jnp.asarray(days * 86400 / self.time_unit_s)}
 
     def switches(self, y0, Kf):
         """Pass 1: (δ at K = 0, switch points K_s, y(K_f), steps, switches found by sampling)."""
@@ -385,7 +408,7 @@ def rescue(model_name: str, n: float, checkpoint: str, grid: float):
     ``free_time_start.json``): is there an exact-switching root where the ε_f polish stopped?"""
     sh, tr = problem(model_name, n)
     ex = ExactSwitching(sh, tr.params(), grid)
-    z0 = jnp.asarray(json.load(open(checkpoint))["z"] if checkpoint.endswith(".json")
+    z0 = jnp.asarray(saved_start(checkpoint)[0] if checkpoint.endswith(".json")
                      else np.load(checkpoint)["z"][:sh.size])
     z, fmax, its, n_sw, yf, t = corrector(ex, z0, 1e-9, max_iterations=6, verbose=VERBOSE)
     u = tr.units()
@@ -395,25 +418,23 @@ def rescue(model_name: str, n: float, checkpoint: str, grid: float):
 
 
 def family(model_name: str, n: float, start: str, tf_from: float, tf_to: float, step: float, grid: float):
-    """The fixed-time family (t(K_f) = t_f replaces p_t(K_f) = 0, the end game's family,
-    :mod:`spaceopt.indirect.free_time`) on the exact map, t_f from ``tf_from`` to ``tf_to`` days in
-    ``step``: per point m_f and φ = p_t(K_f) (dm_f/dt_f = −m₀ φ); Newton from a secant predictor,
-    starting from the saved solution ``start`` (.json). Stops where Newton fails (a fold in t_f)."""
-    sh, tr = problem(model_name, n)
-    sh = dataclasses.replace(sh, fixed_time=True)
-    u = tr.units()
-    ex = ExactSwitching(sh, tr.params(), grid)
-    z_prev, z = None, jnp.asarray(json.load(open(start))["z"])
+    """The fixed-time family (:func:`fixed_time_problem`) on the exact map, t_f from ``tf_from``
+    to ``tf_to`` days in ``step``: per point m_f and φ = p_t(K_f) (dm_f/dt_f = −m₀ φ); Newton from
+    a secant predictor, starting from the saved solution ``start`` (.json). Stops where Newton
+    fails (a fold in t_f)."""
+    ex, u = fixed_time_problem(model_name, n, grid)
+    z_prev, z = None, jnp.asarray(saved_start(start)[0])
     t0 = time.perf_counter()
     for tf in np.arange(tf_from, tf_to + 0.5 * step, step):
-        ex.prm = {**ex.prm, "tf": jnp.asarray(tf * 86400 / u["time_s"])}
+        ex.set_tf(tf)
         guess = z if z_prev is None else 2 * z - z_prev
         z_new, fmax, its, n_sw, yf, t = corrector(ex, guess, 1e-7, max_iterations=6, verbose=VERBOSE)
         if fmax > 1e-6:
             print(f"t_f {tf:.4f} d: Newton failed (|F|max {fmax:.1e} after {its} Jacobians): a fold in t_f, "
                   "or a step too long", flush=True)
             return
-        print(f"t_f {tf:.4f} d: m_f {float(yf[hm.MASS]) * u['mass_kg']:.6f} kg, φ {float(yf[sh.model.n + hm.TIME]):+.3e}, "
+        m_f, phi = mass_and_phi(ex, yf, u)
+        print(f"t_f {tf:.4f} d: m_f {m_f:.6f} kg, φ {phi:+.3e}, "
               f"{its} Jacobians ({t:.0f} s), {n_sw} switches; {time.perf_counter() - t0:.0f} s in all", flush=True)
         z_prev, z = z, z_new
 
@@ -424,30 +445,27 @@ def walk(model_name: str, n: float, start: str, h: float, points: int, grid: flo
     (halved on a failed corrector): per point t_f, m_f, φ = p_t(K_f), and where t_f turns (a fold)
     or φ changes sign (a free-time extremal: a local maximum of m_f in t_f where φ goes from − to +
     with t_f rising). Through folds whatever φ is: the end game's ``downhill_folds`` walk, cheaper."""
-    sh, tr = problem(model_name, n)
-    sh = dataclasses.replace(sh, fixed_time=True)
-    u = tr.units()
+    ex, u = fixed_time_problem(model_name, n, grid)
     day = 86400 / u["time_s"]
-    ex = ExactSwitching(sh, tr.params(), grid)
-    t_row = sh.size - 1                              # t(K_f) − t_f: ∂/∂t_f[d] = −day
+    t_row = ex.sh.size - 1                           # t(K_f) − t_f: ∂/∂t_f[d] = −day
 
     def evaluate(x):
-        ex.prm = {**ex.prm, "tf": jnp.asarray(x[-1] * day)}
+        ex.set_tf(x[-1])
         f, J, yf, _, n_sw, _ = ex.shoot(jnp.asarray(x[:-1]))
         A = np.zeros((len(f), len(x)))
         A[:, :-1], A[t_row, -1] = np.asarray(J), -day
         return np.asarray(f), A, yf, n_sw
 
-    z0 = np.asarray(json.load(open(start))["z"])
-    x = np.append(z0, float(json.load(open(start))["scalars"]["tof_days"]))
+    z0, tf0 = saved_start(start)
+    ex.set_tf(tf0)
+    z0 = corrector(ex, jnp.asarray(z0), 1e-9, max_iterations=6)[0]     # onto the family at the start's t_f
+    x = np.append(np.asarray(z0), tf0)
     f, A, yf, n_sw = evaluate(x)
-    for _ in range(6):                               # onto the family at the start's t_f
-        x[:-1] -= np.linalg.solve(A[:, :-1], f)
-        f, A, yf, n_sw = evaluate(x)
+    m_f, phi_prev = mass_and_phi(ex, yf, u)
     t = np.linalg.svd(A)[2][-1]
-    t = t * np.sign(t[-1]) * (1.0 if float(yf[sh.model.n + hm.TIME]) < 0 else -1.0)   # m_f rising
-    phi_prev, t0 = float(yf[sh.model.n + hm.TIME]), time.perf_counter()
-    print(f"start t_f {x[-1]:.5f} d: m_f {float(yf[hm.MASS]) * u['mass_kg']:.6f} kg, φ {phi_prev:+.3e}, "
+    t = t * np.sign(t[-1]) * (1.0 if phi_prev < 0 else -1.0)         # m_f rising
+    t0 = time.perf_counter()
+    print(f"start t_f {x[-1]:.5f} d: m_f {m_f:.6f} kg, φ {phi_prev:+.3e}, "
           f"|F| {np.max(np.abs(f)):.1e}", flush=True)
     k = 0
     while k < points:
@@ -469,9 +487,9 @@ def walk(model_name: str, n: float, start: str, h: float, points: int, grid: flo
         t_new = np.linalg.svd(A)[2][-1]
         t_new = t_new * np.sign(t_new @ t)
         fold = np.sign(t_new[-1]) != np.sign(t[-1])
-        phi = float(yf[sh.model.n + hm.TIME])
+        m_f, phi = mass_and_phi(ex, yf, u)
         k += 1
-        print(f"{k:3d} t_f {xc[-1]:.5f} d: m_f {float(yf[hm.MASS]) * u['mass_kg']:.6f} kg, φ {phi:+.3e}, "
+        print(f"{k:3d} t_f {xc[-1]:.5f} d: m_f {m_f:.6f} kg, φ {phi:+.3e}, "
               f"{it + 1} Jacobians, {n_sw} switches{', FOLD in t_f' if fold else ''}"
               f"{', φ CHANGES SIGN' if np.sign(phi) != np.sign(phi_prev) else ''}; "
               f"{time.perf_counter() - t0:.0f} s", flush=True)
