@@ -306,3 +306,50 @@ def test_a_model_step_whose_polish_fails_hands_its_end_point_to_the_end_game(per
     out, rec = ft.maximise_final_mass(end, opt)
     assert rec["certified"] and rec["free_time_residual"] < 1e-8
     np.testing.assert_allclose(out.z, j2.z, rtol=1e-5, atol=1e-8)
+
+
+class LiftFamily(FoldFamily):
+    """A family whose folds come from the smoothing: t_f = u³ − a(ε) u with a = 1 at ε_f = 1e-5
+    (folds at u = ∓1/√3, as CUBIC) falling log-linearly to a = −0.5 at ε = 1e-3 (no fold), and
+    φ = u − 1.2 at every ε (m_f its envelope integral at the family's ε)."""
+
+    EPS_F, EPS_LIFT = 1e-5, 1e-3
+
+    def __init__(self, **kw):
+        super().__init__(CUBIC_PHI, self.mass_at, shape=(lambda u: u ** 3 - self.a() * u, lambda u: 3.0 * u * u - self.a()), **kw)
+        self.eps = self.eps_f = self.EPS_F
+
+    def a(self):
+        return 1.0 - 1.5 * np.log(self.eps / self.EPS_F) / np.log(self.EPS_LIFT / self.EPS_F)
+
+    def set_eps(self, eps):
+        self.eps = eps
+
+    def mass_at(self, u):
+        a = self.a()
+        return -(0.75 * u ** 4 - 1.2 * u ** 3 - 0.5 * a * u * u + 1.2 * a * u)
+
+
+@pytest.mark.parametrize("lift_eps", [0.0, LiftFamily.EPS_LIFT])
+def test_where_the_family_folds_at_eps_f_the_search_goes_across_at_a_larger_eps(lift_eps):
+    """The E8 full-model 500 situation: from u₀ = −1.5 the branch rises in m_f to a fold with
+    φ ≠ 0, and steps in t_f cannot reach the maximum at u = 1.2 beyond the next fold. At ε = 1e-3
+    the family has no fold: the lift moves the origin there at its t_f, the lifted search brackets
+    that ε's maximum, the descent back to ε_f at the bracket's t_f lands on the outer branch
+    u > 1/√3, and the search at ε_f from there finds the maximum at u = 1.2 (t_f = 0.528)."""
+    fam = LiftFamily(probe_days=0.3, max_points=40)
+    fam.opt = dataclasses.replace(fam.opt, lift_eps=lift_eps, lift_probe_days=0.3, lift_max_points=40)
+    t0, z0 = fam.start(-1.5)
+    s = ft.MaximumSearch(fam, tu=ft.DAY, m0_kg=1.0)
+    origin = s.solve(t0, z0)
+    found = s.bracket(origin)
+    assert isinstance(found, str) and "folds" in found and s.folds == 1
+    if lift_eps == 0.0:
+        return
+    before = len(s.points)
+    left, right = s.across_branches(origin, found)
+    assert fam.eps == fam.eps_f and not s.at_lift
+    assert s.lifted and s.lift_bracket[0] < 1.2 ** 3 + 0.5 * 1.2 < s.lift_bracket[1]   # the lifted maximum
+    best = s.root(left, right)
+    assert best.z[0] == pytest.approx(1.2, abs=1e-6) and best.tf == pytest.approx(1.2 ** 3 - 1.2, abs=1e-6)
+    assert all(p.z[0] > 1.0 / np.sqrt(3.0) for p in s.points[before:])      # landed beyond the folds

@@ -86,6 +86,11 @@ class MaximumOptions:
     downhill_folds: int = 0         # folds with φ ≠ 0 the arclength walk may pass, going on downhill in
     # m_f to look for a maximum on the branches beyond (0: it stops at the first, MaximumSearch.follow_arc)
     max_arc_step: float = 1.0       # the walk's longest step, in lengths of the secant it starts from
+    lift_eps: float = 1e-3          # where the search at ε_f brackets no maximum: the smoothing ε at which
+    # it looks again, across the branches of the ε_f family (MaximumSearch.across_branches); 0: off
+    lift_steps: int = 4             # log-uniform steps in ε between ε_f and lift_eps, each way
+    lift_probe_days: float = 0.1    # δ of the search at lift_eps (E8 full 500: its maximum 1.1 d from the origin)
+    lift_max_points: int = 24       # fixed-time solves of the search at lift_eps at most
     verbose: bool = True
     label: str = ""
 
@@ -118,9 +123,14 @@ class FixedTimeFamily:
             raise ValueError("the fixed-time family needs a free-time problem with p_t among its unknowns")
         self.sh_free, self.sh = sh, dataclasses.replace(sh, fixed_time=True)
         self.prm, self.opt = prm, opt
+        self.eps_f = self.eps = float(prm["eps_final"])
         self.jacobians = self.residuals = self.solves = 0
         self.e_t = np.zeros(sh.size)
         self.e_t[sh.residual_names().index("p_t(K_f)")] = 1.0     # the row t(K_f) − t_f
+
+    def set_eps(self, eps: float):
+        """The family of the same problem at smoothing ε (the OT map reads it from prm['eps_final'])."""
+        self.eps, self.prm = eps, {**self.prm, "eps_final": jnp.asarray(eps)}
 
     def end_time(self, z) -> float:
         """t(K_f) of the unknowns z (time units)."""
@@ -242,7 +252,11 @@ class MaximumSearch:
         self.family, self.opt = family, family.opt
         self.delta = self.opt.probe_days * DAY / tu
         self.tu, self.m0 = tu, m0_kg
-        self.points: list[FixedTimePoint] = []
+        self.points: list[FixedTimePoint] = []      # at ε_f
+        self.lifted: list[FixedTimePoint] = []      # at lift_eps (:meth:`across_branches`)
+        self.at_lift = False                        # the family is at lift_eps
+        self.budget = self.opt.max_points           # fixed-time solves allowed so far
+        self.lift_bracket: list[float] | None = None    # days, of the lifted problem's maximum
         self.arc_points = self.folds = self.downhill = 0
 
     def log(self, msg):
@@ -253,9 +267,13 @@ class MaximumSearch:
         return tf * self.tu / DAY
 
     def keep(self, p: FixedTimePoint, how: str = "") -> FixedTimePoint:
-        self.points.append(p)
-        self.log(f"  t_f {self.days(p.tf):.5f} d: m_f {p.m_f * self.m0:.6f} kg, phi {p.phi:+.3e}{how}")
+        (self.lifted if self.at_lift else self.points).append(p)
+        at = f" (eps {self.family.eps:g})" if self.at_lift else ""
+        self.log(f"  t_f {self.days(p.tf):.5f} d{at}: m_f {p.m_f * self.m0:.6f} kg, phi {p.phi:+.3e}{how}")
         return p
+
+    def within_budget(self) -> bool:
+        return len(self.points) + len(self.lifted) < self.budget
 
     def solve(self, tf, start, near: FixedTimePoint | None = None) -> FixedTimePoint | None:
         """The fixed-time point at ``tf`` from ``start``, its chord steps with the Jacobian of the
@@ -310,7 +328,7 @@ class MaximumSearch:
         (at most δ; halved where Newton fails, down to δ/8, and kept), until φ turns from − to +
         (as t_f grows); where a step fails even at δ/8, on by arclength (:meth:`follow_arc`)."""
         h = min(self.delta, abs(trail[-1].tf - trail[-2].tf))
-        while len(self.points) < self.opt.max_points:
+        while self.within_budget():
             last = trail[-1]
             p, h = self.advance(trail, direction, h)
             if p is None:
@@ -353,7 +371,7 @@ class MaximumSearch:
         h, v = h_secant / 4, unit(fam.tangent(last), secant)
         descending = False          # on a stretch past a fold with φ ≠ 0, where m_f falls along the family
         self.log(f"  arclength from t_f {self.days(last.tf):.5f} d")
-        while len(self.points) < self.opt.max_points:
+        while self.within_budget():
             x_pred = last.x + h * v
             p = fam.correct(x_pred, np.append(theta2 * v[:-1], v[-1]))
             if p is None:
@@ -381,6 +399,77 @@ class MaximumSearch:
             descending = not uphill
             last, v, h = p, w, min(2.0 * h, h_max)
         return f"no sign change of phi within {self.opt.max_points} fixed-time solves"
+
+    def move_eps(self, p: FixedTimePoint, eps_to: float) -> FixedTimePoint | None:
+        """The fixed-time point ``p`` (at the family's ε) moved to ``eps_to`` at its t_f, in
+        ``lift_steps`` log-uniform steps, each a fixed-time solve from the secant in log ε through
+        the last two points, halved where Newton fails (down to 1/8); None where it fails. The
+        family is left at ``eps_to`` (at the ε reached where it failed)."""
+        fam = self.family
+        log_to = np.log(eps_to)
+        s = np.log(fam.eps)
+        h = (log_to - s) / self.opt.lift_steps
+        prev = None
+        while abs(log_to - s) > 1e-9:
+            step = h if abs(log_to - s) > abs(h) else log_to - s
+            while True:
+                fam.set_eps(eps_to if step == log_to - s else float(np.exp(s + step)))
+                start = p.z if prev is None else p.z + (p.z - prev[1].z) * step / (s - prev[0])
+                q = fam.point(p.tf, start, p.J)
+                if q is not None or abs(step) <= abs(h) / 8:
+                    break
+                step *= 0.5
+            if q is None:
+                fam.set_eps(float(np.exp(s)))
+                self.log(f"  eps {fam.eps:g} -> {np.exp(s + step):g} at t_f {self.days(p.tf):.5f} d: fixed-time Newton failed")
+                return None
+            prev, p, s = (s, p), q, s + step
+            self.log(f"  eps {fam.eps:.3g} at t_f {self.days(p.tf):.5f} d: m_f {p.m_f * self.m0:.6f} kg, phi {p.phi:+.3e}")
+        return p
+
+    def across_branches(self, origin: FixedTimePoint, reason: str):
+        """Where the search at ε_f brackets no maximum (``reason``), the search again through the
+        family at the larger smoothing ε = ``lift_eps``: (left, right) at ε_f as :meth:`bracket`
+        returns them, or a reason string.
+
+        At ε_f the fixed-time family can fold with φ ≠ 0 where a burn arc is about to be born
+        (E8 full model 500: at 320.262 d, S grazing −5e-5 one revolution before the shortest
+        arcs; docs/perturbed-e6-e7-e8.md, "thirtieth" and "thirty-second session"); branches
+        beyond it with maxima exist but steps in t_f cannot reach them. With wider switches the
+        family at a larger ε runs on past such places. So: the origin is moved to ``lift_eps`` at
+        its t_f (:meth:`move_eps`), the bracket search runs there (probes, march, arclength:
+        :meth:`bracket`) to the lifted problem's maximum, its bracket point with the smaller |φ|
+        is moved back to ε_f at its t_f, and the bracket search at ε_f runs from where it lands.
+        The search at ``lift_eps`` has probes ``lift_probe_days`` apart and ``lift_max_points``
+        fixed-time solves, the one back at ε_f ``max_points`` more. The maximum found lies on whatever
+        branch the descent lands on: it is certified as a local maximum of m_f in t_f at ε_f, as
+        any other, not as the heaviest."""
+        opt, fam = self.opt, self.family
+        self.log(f"  no maximum at eps {fam.eps_f:g} ({reason}); the family at eps {opt.lift_eps:g} from "
+                 f"t_f {self.days(origin.tf):.5f} d")
+        lifted = self.move_eps(origin, opt.lift_eps)
+        if lifted is None:
+            return f"{reason}; the lift to eps {opt.lift_eps:g} failed"
+        self.at_lift, delta = True, self.delta
+        self.keep(lifted)
+        self.budget += opt.lift_max_points
+        self.delta = opt.lift_probe_days * DAY / self.tu
+        found = self.bracket(lifted)
+        self.delta = delta
+        if isinstance(found, str):
+            return f"{reason}; at eps {opt.lift_eps:g}: {found}"
+        near = min(found, key=lambda q: abs(q.phi))
+        self.lift_bracket = [self.days(q.tf) for q in found]
+        self.log(f"  at eps {opt.lift_eps:g} a maximum between {self.lift_bracket[0]:.5f} and "
+                 f"{self.lift_bracket[1]:.5f} d; back to eps {fam.eps_f:g} at {self.days(near.tf):.5f} d")
+        landed = self.move_eps(near, fam.eps_f)
+        self.at_lift = False
+        if landed is None:
+            return f"{reason}; the descent from eps {opt.lift_eps:g} at t_f {self.days(near.tf):.5f} d failed"
+        self.keep(landed, ", the descent's end")
+        self.budget += opt.max_points
+        found = self.bracket(landed)
+        return found if not isinstance(found, str) else f"{reason}; after the lift, from t_f {self.days(landed.tf):.5f} d: {found}"
 
     def root(self, left: FixedTimePoint, right: FixedTimePoint) -> FixedTimePoint:
         """The crossing of φ from − to + in [left, right] (Brent), as its solved point. The starts
@@ -424,6 +513,11 @@ def maximise_final_mass(sol, options: MaximumOptions | None = None):
     else:
         record["m_f0_kg"] = origin.m_f * tr.m0
         found = search.bracket(origin)
+        if isinstance(found, str) and opt.lift_eps > 0.0:
+            found = search.across_branches(origin, found)
+            record["lift"] = {"eps": opt.lift_eps, "bracket_days": search.lift_bracket,
+                              "points": [[search.days(p.tf), p.m_f * tr.m0, p.phi]
+                                         for p in sorted(search.lifted, key=lambda p: p.tf)]}
         if isinstance(found, str):
             status = found
         else:
