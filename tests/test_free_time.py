@@ -315,9 +315,14 @@ class LiftFamily(FoldFamily):
 
     EPS_F, EPS_LIFT = 1e-5, 1e-3
 
-    def __init__(self, **kw):
+    def __init__(self, fails_lifted=(np.inf, np.inf), **kw):
         super().__init__(CUBIC_PHI, self.mass_at, shape=(lambda u: u ** 3 - self.a() * u, lambda u: 3.0 * u * u - self.a()), **kw)
         self.eps = self.eps_f = self.EPS_F
+        self.fails_lifted = fails_lifted        # t_f range where Newton fails at the lifted ε
+
+    def point(self, tf, z, J=None):
+        lo, hi = self.fails_lifted
+        return None if self.eps == self.EPS_LIFT and lo < tf < hi else super().point(tf, z, J)
 
     def a(self):
         return 1.0 - 1.5 * np.log(self.eps / self.EPS_F) / np.log(self.EPS_LIFT / self.EPS_F)
@@ -337,7 +342,7 @@ def test_where_the_family_folds_at_eps_f_the_search_goes_across_at_a_larger_eps(
     the family has no fold: the lift moves the origin there at its t_f, the lifted search brackets
     that ε's maximum, the descent back to ε_f at the bracket's t_f lands on the outer branch
     u > 1/√3, and the search at ε_f from there finds the maximum at u = 1.2 (t_f = 0.528)."""
-    fam = LiftFamily(probe_days=0.3, max_points=40)
+    fam = LiftFamily(probe_days=0.3, max_points=40, fails_lifted=(0.1, 0.3))
     fam.opt = dataclasses.replace(fam.opt, lift_eps=lift_eps, lift_probe_days=0.3, lift_max_points=40)
     t0, z0 = fam.start(-1.5)
     s = ft.MaximumSearch(fam, tu=ft.DAY, m0_kg=1.0)
@@ -353,3 +358,6 @@ def test_where_the_family_folds_at_eps_f_the_search_goes_across_at_a_larger_eps(
     best = s.root(left, right)
     assert best.z[0] == pytest.approx(1.2, abs=1e-6) and best.tf == pytest.approx(1.2 ** 3 - 1.2, abs=1e-6)
     assert all(p.z[0] > 1.0 / np.sqrt(3.0) for p in s.points[before:])      # landed beyond the folds
+    lifted = sorted(p.tf for p in s.lifted)
+    assert not any(0.1 < t < 0.3 for t in lifted)         # a lifted step halved past where Newton fails,
+    assert lifted[-1] - lifted[-2] == pytest.approx(0.3)  # then grown back to δ

@@ -1150,6 +1150,12 @@ def test_the_end_game_rows_and_sentence_say_what_was_certified_moved_and_not_fou
     payloads["e8_g44_moon_sun_n450"]["extra"]["tof_maximum"].update(folds_passed=2, downhill_folds_passed=1)
     text = R.tof_maximum_sentence(R.tof_maximum_rows(payloads))
     assert "on downhill along the family" in text and "e8\\_g44\\_moon\\_sun\\_n450: $-2.50$ g" in text
+    assert "larger smoothing" not in text and rows[-1]["lift_eps"] is None
+    payloads["e8_g44_moon_sun_n500"]["extra"]["tof_maximum"]["lift"] = {"eps": 1e-3, "bracket_days": [321.0, 321.1]}
+    rows = R.tof_maximum_rows(payloads)
+    assert [r["lift_eps"] for r in rows] == [None, None, None, 1e-3]
+    text = R.tof_maximum_sentence(rows)
+    assert "at a larger smoothing" in text and "e8\\_g44\\_moon\\_sun\\_n500: $\\varepsilon$ 0.001, $\\Delta t$ 321.1281 $\\to$ 321.0000 d" in text
     assert R.tof_maximum_sentence([]) == ""
 
 

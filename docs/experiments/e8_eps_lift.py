@@ -10,8 +10,7 @@ about to be born). The smoothed problem at a larger ε has fewer, wider switches
 may run on in t_f where the ε_f one folds. This script
 
 1. solves the fixed-time extremal at the start's own t_f (ε_f, :class:`FixedTimeFamily`);
-2. lifts ε at that t_f, log-uniform steps up to EPS_LIFT (each a fixed-time Newton solve from
-   the last point, the step halved where it fails);
+2. lifts ε at that t_f, log-uniform steps up to EPS_LIFT (:meth:`MaximumSearch.move_eps`);
 3. marches t_f at EPS_LIFT from there to TF_TO in steps of TF_STEP days (extrapolated starts,
    halved where Newton fails), printing m_f and φ: a crossing of φ from − to + is the lifted
    problem's free-time maximum;
@@ -22,7 +21,10 @@ may run on in t_f where the ε_f one folds. This script
    t_f on the branch the descent landed on, or the reason there is none.
 
 The ε steps and the t_f march are the library's fixed-time corrector (:meth:`FixedTimeFamily.point`)
-with its data ε changed; nothing here is a new solver. Not wired into the pipeline.
+with its data ε changed; nothing here is a new solver. The library's end game does the same
+since this session (``MaximumOptions.lift_eps``, :meth:`MaximumSearch.across_branches`), with its
+own bracket search at the lifted ε instead of this fixed-step march; this script keeps the
+march, whose points at fixed steps show the lifted family.
 
     python docs/experiments/e8_eps_lift.py START EPS_LIFT TF_TO [--tf-step D] [--eps-steps N] [--at-root]
 
@@ -31,7 +33,6 @@ START: a saved free-time solution (.json), e.g. the end game's ``free_time_start
 from __future__ import annotations
 
 import argparse
-import math
 import time
 
 import numpy as np
@@ -44,40 +45,10 @@ from spaceopt.studies import perturbed as P
 SAVED = "/tmp/e8_eps_lift_march.npz"     # the march's points at the lifted ε: t_f (time units), z
 
 
-def at_eps(family: FixedTimeFamily, prm: dict, eps: float):
-    """The family's data at smoothing ε (the OT map reads ε from prm['eps_final'])."""
-    import jax.numpy as jnp
-    family.prm = {**prm, "eps_final": jnp.asarray(eps)}
-
-
-def move_eps(search: MaximumSearch, prm: dict, p, eps_from: float, eps_to: float, steps: int):
-    """The fixed-time point p (at ε_from) moved to ε_to at its t_f in ``steps`` log-uniform steps
-    (a step halved where Newton fails, at most 6 times); None where it fails."""
-    log_from, log_to = math.log(eps_from), math.log(eps_to)
-    h, s, prev = (log_to - log_from) / steps, log_from, None
-    while abs(s - log_to) > 1e-12:
-        step = h if abs(log_to - s) > abs(h) else log_to - s
-        for _ in range(7):
-            at_eps(search.family, prm, math.exp(s + step))
-            # secant predictor in log ε through the last two points
-            start = p.z if prev is None else p.z + (p.z - prev[1].z) * step / (s - prev[0])
-            q = search.family.point(p.tf, start, p.J)
-            if q is not None:
-                break
-            step *= 0.5
-        else:
-            search.log(f"  eps {math.exp(s):.3g}: the step to the next eps failed 7 times")
-            return None
-        prev, p, s = (s, p), q, s + step
-        search.log(f"  eps {math.exp(s):.4g} at t_f {search.days(p.tf):.5f} d: m_f {p.m_f * search.m0:.6f} kg, "
-                   f"phi {p.phi:+.3e}  ({search.family.jacobians} Jacobians so far)")
-    return p
-
-
 def march_tf(search: MaximumSearch, p, tf_to: float, h: float):
     """Fixed-time points from p to t_f = tf_to (time units) by steps h (halved where Newton fails,
     down to h/16): the trail, or the trail so far where a step fails."""
-    trail, direction = [p], math.copysign(1.0, tf_to - p.tf)
+    trail, direction = [p], float(np.sign(tf_to - p.tf))
     while direction * (tf_to - trail[-1].tf) > 1e-12:
         step = min(h, abs(tf_to - trail[-1].tf))
         while True:
@@ -106,7 +77,8 @@ def main():
     sol = P.load(args.start)
     tr, prm = sol.transfer, sol.prm
     eps_f = float(prm["eps_final"])
-    opt = MaximumOptions(probe_days=0.05, tof_tol_days=1e-4, max_points=16, max_newton=6, label="eps lift")
+    opt = MaximumOptions(probe_days=0.05, tof_tol_days=1e-4, max_points=16, max_newton=6,
+                         lift_steps=args.eps_steps, label="eps lift")
     family = FixedTimeFamily(sol.shooting, prm, opt)
     search = MaximumSearch(family, tr.tu, tr.m0)
     tf0 = family.end_time(sol.z)
@@ -115,12 +87,12 @@ def main():
         raise SystemExit("the fixed-time point at the start's own t_f did not converge")
 
     search.log(f"1. lift eps {eps_f:g} -> {args.eps_lift:g} at t_f {search.days(tf0):.5f} d")
-    lifted = move_eps(search, prm, p0, eps_f, args.eps_lift, args.eps_steps)
+    lifted = search.move_eps(p0, args.eps_lift)
     if lifted is None:
         raise SystemExit("the lift in eps failed")
+    search.at_lift = True           # the march's points are kept (and logged) as lifted ones
 
     search.log(f"2. march t_f at eps {args.eps_lift:g} to {args.tf_to:.5f} d by {args.tf_step:g} d")
-    at_eps(family, prm, args.eps_lift)
     trail = march_tf(search, lifted, args.tf_to * DAY / tr.tu, args.tf_step * DAY / tr.tu)
     np.savez(SAVED, tf=[q.tf for q in trail], z=np.array([q.z for q in trail]), eps=args.eps_lift)
     crossings = [(a, b) for a, b in zip(trail, trail[1:]) if a.phi < 0.0 < b.phi or b.phi < 0.0 < a.phi]
@@ -137,13 +109,13 @@ def main():
         descend_from = up[0][0]
 
     search.log(f"3. descend eps {args.eps_lift:g} -> {eps_f:g} at t_f {search.days(descend_from.tf):.5f} d")
-    landed = move_eps(search, prm, descend_from, args.eps_lift, eps_f, args.eps_steps)
+    landed = search.move_eps(descend_from, eps_f)
+    search.at_lift = False
     if landed is None:
         raise SystemExit("the descent in eps failed")
 
     search.log("4. the end game's bracket search at eps_f from there")
-    at_eps(family, prm, eps_f)
-    search.points = [landed]
+    search.keep(landed)
     found = search.bracket(landed)
     if isinstance(found, str):
         search.log(f"no maximum: {found}")

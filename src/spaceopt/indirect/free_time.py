@@ -90,7 +90,7 @@ class MaximumOptions:
     # it looks again, across the branches of the ε_f family (MaximumSearch.across_branches); 0: off
     lift_steps: int = 4             # log-uniform steps in ε between ε_f and lift_eps, each way
     lift_probe_days: float = 0.1    # δ of the search at lift_eps (E8 full 500: its maximum 1.1 d from the origin)
-    lift_max_points: int = 24       # fixed-time solves of the search at lift_eps at most
+    lift_max_points: int = 32       # fixed-time solves of the search at lift_eps at most
     verbose: bool = True
     label: str = ""
 
@@ -268,9 +268,12 @@ class MaximumSearch:
 
     def keep(self, p: FixedTimePoint, how: str = "") -> FixedTimePoint:
         (self.lifted if self.at_lift else self.points).append(p)
-        at = f" (eps {self.family.eps:g})" if self.at_lift else ""
-        self.log(f"  t_f {self.days(p.tf):.5f} d{at}: m_f {p.m_f * self.m0:.6f} kg, phi {p.phi:+.3e}{how}")
+        self.log(f"  {self.where(p.tf)}: m_f {p.m_f * self.m0:.6f} kg, phi {p.phi:+.3e}{how}")
         return p
+
+    def where(self, tf) -> str:
+        """t_f in days for the log, with the family's ε while it is lifted."""
+        return f"t_f {self.days(tf):.5f} d" + (f" (eps {self.family.eps:g})" if self.at_lift else "")
 
     def within_budget(self) -> bool:
         return len(self.points) + len(self.lifted) < self.budget
@@ -280,7 +283,7 @@ class MaximumSearch:
         solved point ``near``; logged, and kept in ``points``."""
         p = self.family.point(tf, start, None if near is None else near.J)
         if p is None:
-            self.log(f"  t_f {self.days(tf):.5f} d: fixed-time Newton failed")
+            self.log(f"  {self.where(tf)}: fixed-time Newton failed")
             return None
         return self.keep(p)
 
@@ -325,8 +328,10 @@ class MaximumSearch:
 
     def march(self, trail: list[FixedTimePoint], direction: float):
         """From the last point of ``trail`` in ``direction`` by steps of the trail's last spacing
-        (at most δ; halved where Newton fails, down to δ/8, and kept), until φ turns from − to +
-        (as t_f grows); where a step fails even at δ/8, on by arclength (:meth:`follow_arc`)."""
+        (at most δ; halved where Newton fails, down to δ/8, and kept; at the lifted ε of
+        :meth:`across_branches` doubled again after each solved point, up to δ), until φ turns
+        from − to + (as t_f grows); where a step fails even at δ/8, on by arclength
+        (:meth:`follow_arc`)."""
         h = min(self.delta, abs(trail[-1].tf - trail[-2].tf))
         while self.within_budget():
             last = trail[-1]
@@ -336,7 +341,11 @@ class MaximumSearch:
             trail.append(p)
             if np.sign(p.phi) != np.sign(last.phi):
                 return (last, p) if direction > 0 else (p, last)
-        return f"no sign change of phi within {self.opt.max_points} fixed-time solves"
+            if self.at_lift:
+                # E8 full 500 at ε 1e-3: steps of δ/4 pass 320.3 d, δ again beyond (kept at δ/4,
+                # the march ran out of solves 0.2 d short of the maximum)
+                h = min(2.0 * h, self.delta)
+        return f"no sign change of phi within {self.budget} fixed-time solves"
 
     def follow_arc(self, trail: list[FixedTimePoint]):
         """The family followed uphill in m_f by pseudo-arclength steps (Keller) from the last point
@@ -398,7 +407,7 @@ class MaximumSearch:
                 self.log(f"  on downhill past the fold ({self.downhill} of {self.opt.downhill_folds})")
             descending = not uphill
             last, v, h = p, w, min(2.0 * h, h_max)
-        return f"no sign change of phi within {self.opt.max_points} fixed-time solves"
+        return f"no sign change of phi within {self.budget} fixed-time solves"
 
     def move_eps(self, p: FixedTimePoint, eps_to: float) -> FixedTimePoint | None:
         """The fixed-time point ``p`` (at the family's ε) moved to ``eps_to`` at its t_f, in
@@ -451,7 +460,7 @@ class MaximumSearch:
         if lifted is None:
             return f"{reason}; the lift to eps {opt.lift_eps:g} failed"
         self.at_lift, delta = True, self.delta
-        self.keep(lifted)
+        self.lifted.append(lifted)
         self.budget += opt.lift_max_points
         self.delta = opt.lift_probe_days * DAY / self.tu
         found = self.bracket(lifted)
@@ -466,7 +475,7 @@ class MaximumSearch:
         self.at_lift = False
         if landed is None:
             return f"{reason}; the descent from eps {opt.lift_eps:g} at t_f {self.days(near.tf):.5f} d failed"
-        self.keep(landed, ", the descent's end")
+        self.points.append(landed)
         self.budget += opt.max_points
         found = self.bracket(landed)
         return found if not isinstance(found, str) else f"{reason}; after the lift, from t_f {self.days(landed.tf):.5f} d: {found}"

@@ -95,7 +95,7 @@ def tables(payloads: dict, run: list, cases: dict, e6: dict, e8_n: list) -> dict
 
 TOF_MAXIMUM_COLUMNS = ["solve", "start", "status", "t0_days", "tof_days", "m_f_gain_g", "fixed_time_solves",
                        "jacobian_evaluations", "arclength_points", "folds_passed", "downhill_folds_passed",
-                       "wall_time_s"]
+                       "lift_eps", "wall_time_s"]
 MOVED_DAYS = 1e-3       # an end game that changed Δt by more than this moved the extremal
 
 
@@ -105,7 +105,9 @@ def tof_maximum_rows(payloads: dict) -> list[dict]:
     point of a free-time polish that did not converge, ``extra.polish_failure``), its status,
     the transfer time before (t0) and after it, the final mass it gained, its cost, and the
     folds of the fixed-time family it went round, and of those, the ones with φ ≠ 0 past which it
-    went on downhill in m_f (``MaximumOptions.downhill_folds``; older records have none)."""
+    went on downhill in m_f (``MaximumOptions.downhill_folds``; older records have none), and the
+    smoothing ε at which it searched again where it found no maximum at ε_f (``lift_eps``,
+    ``MaximumSearch.across_branches``; None where it did not)."""
     rows = []
     for key in sorted(payloads):
         extra = payloads[key].get("extra", {})
@@ -116,7 +118,8 @@ def tof_maximum_rows(payloads: dict) -> list[dict]:
                          "tof_days": rec.get("tof_days"),
                          "m_f_gain_g": rec["m_f_gain_kg"] * 1e3 if "m_f_gain_kg" in rec else None,
                          **{k: rec[k] for k in ("fixed_time_solves", "jacobian_evaluations", "wall_time_s")},
-                         **{k: rec.get(k) for k in ("arclength_points", "folds_passed", "downhill_folds_passed")}})
+                         **{k: rec.get(k) for k in ("arclength_points", "folds_passed", "downhill_folds_passed")},
+                         "lift_eps": rec.get("lift", {}).get("eps")})
     return rows
 
 
@@ -154,6 +157,14 @@ def tof_maximum_sentence(rows: list[dict]) -> str:
                  "$m_f$ along the family that is no free-time extremal), the search goes on downhill along the "
                  "family to the maximum of a branch beyond, which can be lighter than the start (" +
                  ", ".join(f"{latex_escape(r['solve'])}: ${r['m_f_gain_g']:+.2f}$ g" for r in downhill) + ").")
+    lifted = [r for r in certified if r.get("lift_eps")]
+    if lifted:
+        text += (" Where the search found no maximum at $\\varepsilon_f$ (the family folds with $\\varphi \\neq 0$), "
+                 "it searched again on the family at a larger smoothing $\\varepsilon$, across its branches, and "
+                 "went back down to $\\varepsilon_f$ at the time of that problem's maximum, where the search at "
+                 "$\\varepsilon_f$ certified the maximum of the branch it landed on (" +
+                 ", ".join(f"{latex_escape(r['solve'])}: $\\varepsilon$ {r['lift_eps']:g}, $\\Delta t$ "
+                           f"{r['t0_days']:.4f} $\\to$ {r['tof_days']:.4f} d" for r in lifted) + ").")
     if failed:
         text += (" The search did not certify " + ", ".join(
             f"{latex_escape(r['solve'])} ({latex_escape(r['status'])})" for r in failed) + ".")
