@@ -361,3 +361,18 @@ def test_where_the_family_folds_at_eps_f_the_search_goes_across_at_a_larger_eps(
     lifted = sorted(p.tf for p in s.lifted)
     assert not any(0.1 < t < 0.3 for t in lifted)         # a lifted step halved past where Newton fails,
     assert lifted[-1] - lifted[-2] == pytest.approx(0.3)  # then grown back to δ
+
+
+def test_a_lift_that_finds_nothing_leaves_the_family_at_eps_f():
+    """The lifted search runs out of solves (lift_max_points 3): the reason names both searches,
+    and the family, δ and the search are back at ε_f (the record's free-time residual is
+    evaluated there)."""
+    fam = LiftFamily(probe_days=0.3, max_points=40)
+    fam.opt = dataclasses.replace(fam.opt, lift_eps=LiftFamily.EPS_LIFT, lift_probe_days=0.3, lift_max_points=3)
+    t0, z0 = fam.start(-1.5)
+    s = ft.MaximumSearch(fam, tu=ft.DAY, m0_kg=1.0)
+    origin = s.solve(t0, z0)
+    delta = s.delta
+    found = s.across_branches(origin, s.bracket(origin))
+    assert isinstance(found, str) and "folds" in found and "at eps 0.001: no sign change" in found
+    assert fam.eps == fam.eps_f and not s.at_lift and s.delta == delta and s.lifted

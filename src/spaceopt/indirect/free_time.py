@@ -33,7 +33,12 @@ its probes land on.
    family folds with φ ≠ 0 (a maximum of m_f along it that is no free-time extremal), or, with
    ``downhill_folds``, on past such folds, downhill along the family until m_f rises again,
    to a maximum on a branch beyond (which can be lighter than the start: the record's gain);
-4. finds the root in that bracket by Brent's method (``scipy.optimize.brentq``, to
+4. where steps 2–3 bracket no maximum, looks again on the family at a larger smoothing ε
+   (``lift_eps``, :meth:`MaximumSearch.across_branches`): the origin moved there at its t_f,
+   steps 2–3 at that ε, its bracket's point moved back to ε_f at its t_f, and steps 2–3 at ε_f
+   from where it lands (E8 full 500: past a fold at ε_f with φ ≠ 0 to the 321.028 d maximum,
+   docs/perturbed-e6-e7-e8.md, "thirty-second session");
+5. finds the root in that bracket by Brent's method (``scipy.optimize.brentq``, to
    ``tof_tol_days``; each value of φ a fixed-time Newton solve started from the bracket's
    solutions interpolated in t_f). Brent keeps a sign change between the ends of its bracket,
    each new point replacing the end of its own sign, so the negative end stays on the left and
@@ -246,7 +251,7 @@ def extrapolate(trail: list[FixedTimePoint], tf: float, e_t: np.ndarray) -> np.n
 
 
 class MaximumSearch:
-    """Steps 2–4 of the module docstring on one family; ``points`` holds every solved point."""
+    """Steps 2–5 of the module docstring on one family; ``points`` holds every solved point at ε_f."""
 
     def __init__(self, family: FixedTimeFamily, tu: float, m0_kg: float):
         self.family, self.opt = family, family.opt
@@ -255,7 +260,7 @@ class MaximumSearch:
         self.points: list[FixedTimePoint] = []      # at ε_f
         self.lifted: list[FixedTimePoint] = []      # at lift_eps (:meth:`across_branches`)
         self.at_lift = False                        # the family is at lift_eps
-        self.budget = self.opt.max_points           # fixed-time solves allowed so far
+        self.budget = self.opt.max_points           # solved points (ε_f and lifted) allowed so far
         self.lift_bracket: list[float] | None = None    # days, of the lifted problem's maximum
         self.arc_points = self.folds = self.downhill = 0
 
@@ -453,15 +458,24 @@ class MaximumSearch:
         fixed-time solves, the one back at ε_f ``max_points`` more. The maximum found lies on whatever
         branch the descent lands on: it is certified as a local maximum of m_f in t_f at ε_f, as
         any other, not as the heaviest."""
-        opt, fam = self.opt, self.family
+        opt, fam, delta = self.opt, self.family, self.delta
         self.log(f"  no maximum at eps {fam.eps_f:g} ({reason}); the family at eps {opt.lift_eps:g} from "
                  f"t_f {self.days(origin.tf):.5f} d")
+        try:
+            return self._across_branches(origin, reason)
+        finally:        # whatever happened, the family is left at ε_f (the record's free-time residual)
+            fam.set_eps(fam.eps_f)
+            self.at_lift, self.delta = False, delta
+
+    def _across_branches(self, origin: FixedTimePoint, reason: str):
+        """The steps of :meth:`across_branches`, which restores ε_f, δ and the lift flag after them."""
+        opt, fam = self.opt, self.family
         lifted = self.move_eps(origin, opt.lift_eps)
         if lifted is None:
             return f"{reason}; the lift to eps {opt.lift_eps:g} failed"
         self.at_lift, delta = True, self.delta
         self.lifted.append(lifted)
-        self.budget += opt.lift_max_points
+        self.budget = len(self.points) + len(self.lifted) + opt.lift_max_points
         self.delta = opt.lift_probe_days * DAY / self.tu
         found = self.bracket(lifted)
         self.delta = delta
@@ -476,7 +490,7 @@ class MaximumSearch:
         if landed is None:
             return f"{reason}; the descent from eps {opt.lift_eps:g} at t_f {self.days(near.tf):.5f} d failed"
         self.points.append(landed)
-        self.budget += opt.max_points
+        self.budget = len(self.points) + len(self.lifted) + opt.max_points
         found = self.bracket(landed)
         return found if not isinstance(found, str) else f"{reason}; after the lift, from t_f {self.days(landed.tf):.5f} d: {found}"
 
