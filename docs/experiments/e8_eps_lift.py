@@ -38,7 +38,7 @@ import time
 import numpy as np
 
 from spaceopt.constants import DAY
-from spaceopt.indirect.free_time import FixedTimeFamily, MaximumOptions, MaximumSearch, extrapolate
+from spaceopt.indirect.free_time import FixedTimeFamily, MaximumOptions, MaximumSearch
 from spaceopt.studies import perturbed as P
 
 
@@ -46,20 +46,15 @@ SAVED = "/tmp/e8_eps_lift_march.npz"     # the march's points at the lifted ε: 
 
 
 def march_tf(search: MaximumSearch, p, tf_to: float, h: float):
-    """Fixed-time points from p to t_f = tf_to (time units) by steps h (halved where Newton fails,
-    down to h/16): the trail, or the trail so far where a step fails."""
+    """Fixed-time points from p to t_f = tf_to (time units) by steps h, each halved where Newton
+    fails, down to δ/8 (:meth:`MaximumSearch.advance`; at the lifted ε δ is TF_STEP, so h/8),
+    and h again for the next: the trail, or the trail so far where a step fails."""
     trail, direction = [p], float(np.sign(tf_to - p.tf))
     while direction * (tf_to - trail[-1].tf) > 1e-12:
-        step = min(h, abs(tf_to - trail[-1].tf))
-        while True:
-            tf = trail[-1].tf + direction * step
-            q = search.solve(tf, extrapolate(trail, tf, search.family.e_t), trail[-1])
-            if q is not None:
-                trail.append(q)
-                break
-            if step < h / 16:
-                return trail
-            step *= 0.5
+        q, _ = search.advance(trail, direction, min(h, abs(tf_to - trail[-1].tf)))
+        if q is None:
+            return trail
+        trail.append(q)
     return trail
 
 
@@ -78,7 +73,7 @@ def main():
     tr, prm = sol.transfer, sol.prm
     eps_f = float(prm["eps_final"])
     opt = MaximumOptions(probe_days=0.05, tof_tol_days=1e-4, max_points=16, max_newton=6,
-                         lift_steps=args.eps_steps, label="eps lift")
+                         lift_steps=args.eps_steps, lift_probe_days=args.tf_step, label="eps lift")
     family = FixedTimeFamily(sol.shooting, prm, opt)
     search = MaximumSearch(family, tr.tu, tr.m0)
     tf0 = family.end_time(sol.z)

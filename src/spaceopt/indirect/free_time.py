@@ -255,7 +255,6 @@ class MaximumSearch:
 
     def __init__(self, family: FixedTimeFamily, tu: float, m0_kg: float):
         self.family, self.opt = family, family.opt
-        self.delta = self.opt.probe_days * DAY / tu
         self.tu, self.m0 = tu, m0_kg
         self.points: list[FixedTimePoint] = []      # at ε_f
         self.lifted: list[FixedTimePoint] = []      # at lift_eps (:meth:`across_branches`)
@@ -263,6 +262,12 @@ class MaximumSearch:
         self.budget = self.opt.max_points           # solved points (ε_f and lifted) allowed so far
         self.lift_bracket: list[float] | None = None    # days, of the lifted problem's maximum
         self.arc_points = self.folds = self.downhill = 0
+
+    @property
+    def delta(self) -> float:
+        """δ, the probes' distance and the march's longest step (time units): ``probe_days``, and
+        ``lift_probe_days`` while the family is lifted."""
+        return (self.opt.lift_probe_days if self.at_lift else self.opt.probe_days) * DAY / self.tu
 
     def log(self, msg):
         if self.opt.verbose:
@@ -458,27 +463,25 @@ class MaximumSearch:
         fixed-time solves, the one back at ε_f ``max_points`` more. The maximum found lies on whatever
         branch the descent lands on: it is certified as a local maximum of m_f in t_f at ε_f, as
         any other, not as the heaviest."""
-        opt, fam, delta = self.opt, self.family, self.delta
+        opt, fam = self.opt, self.family
         self.log(f"  no maximum at eps {fam.eps_f:g} ({reason}); the family at eps {opt.lift_eps:g} from "
                  f"t_f {self.days(origin.tf):.5f} d")
         try:
             return self._across_branches(origin, reason)
         finally:        # whatever happened, the family is left at ε_f (the record's free-time residual)
             fam.set_eps(fam.eps_f)
-            self.at_lift, self.delta = False, delta
+            self.at_lift = False
 
     def _across_branches(self, origin: FixedTimePoint, reason: str):
-        """The steps of :meth:`across_branches`, which restores ε_f, δ and the lift flag after them."""
+        """The steps of :meth:`across_branches`, which restores ε_f and the lift flag (and so δ) after them."""
         opt, fam = self.opt, self.family
         lifted = self.move_eps(origin, opt.lift_eps)
         if lifted is None:
             return f"{reason}; the lift to eps {opt.lift_eps:g} failed"
-        self.at_lift, delta = True, self.delta
+        self.at_lift = True
         self.lifted.append(lifted)
         self.budget = len(self.points) + len(self.lifted) + opt.lift_max_points
-        self.delta = opt.lift_probe_days * DAY / self.tu
         found = self.bracket(lifted)
-        self.delta = delta
         if isinstance(found, str):
             return f"{reason}; at eps {opt.lift_eps:g}: {found}"
         near = min(found, key=lambda q: abs(q.phi))
