@@ -33,3 +33,22 @@ def test_the_sentence_gives_each_change_and_where_the_verdict_turns():
     none = E.sentence([{**rows[0], "exists": "False"}, {**rows[1], "exists": "False"}], MODEL_TEX)
     assert "below $T_{min}$ for unperturbed, $J_2$: no transfer over this angular range" in none
     assert E.sentence([], MODEL_TEX) == ""
+
+
+def test_an_upper_bound_is_written_as_one_and_decides_only_at_or_above_it():
+    """E7's rows come from the OT side (tmin_from_ot) and are upper bounds: "≤", no change
+    against another bound, the route named; a thrust below a bound is undecided, not "no
+    transfer"."""
+    def bound(model, T_min, thrust):
+        p = _payload(T_min, thrust, 100.0)
+        p["extra"]["verdict"].update(T_min_is="upper bound", exists=True if thrust >= T_min else None)
+        p["extra"]["route"] = "ot-tmin"
+        return E.row("e7", model, p)
+    rows = [bound("unperturbed", 0.311622, 1.0), bound("j2", 0.309901, 1.0)]
+    assert rows[0]["T_min_is"] == "upper bound" and rows[0]["route"] == "ot-tmin"
+    rows = [{k: ("" if v is None else str(v)) if k == "exists" else v for k, v in r.items()} for r in rows]
+    text = E.sentence(rows, MODEL_TEX)
+    assert "E7 (100 revolutions, $T = 1$~N): unperturbed $\\le$ 0.3116~N; $J_2$ $\\le$ 0.3099~N (upper bounds" in text
+    assert "below" not in text.split("(upper bounds")[0]
+    low = E.sentence([bound("unperturbed", 0.311622, 0.2)], MODEL_TEX)
+    assert "below the upper bound for unperturbed: undecided" in low and "no transfer" not in low

@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 import yaml
 
-from spaceopt.indirect import chain
+from spaceopt.indirect import chain, tmin_from_ot
 from spaceopt.indirect.flow import hamiltonian
 from spaceopt.report import compare
-from spaceopt.studies import multirev
+from spaceopt.studies import multirev, verify
 from spaceopt.studies.trajectory import sample
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -145,3 +145,35 @@ def test_thrust_continuation_from_the_ot_solution(e1):
     assert ot16.thrust_N == 16.0 and ot16.stats["final_residual"] < 1e-9
     m = lambda sol: sample(sol, 50)["mass_kg"][-1]
     assert m(ot16) > e1["samples"]["ot"]["mass_kg"][-1]
+
+
+def test_tmin_from_the_ot_side_reaches_the_lp_sides_tmin(e1):
+    """The T_min → OT homotopy followed back from the OT 15 N solution (tmin_from_ot, the E7
+    existence route) reaches τ = 0 on E1 and lands on the T_min of the (3.4.1) path from the LP."""
+    tm = tmin_from_ot.solve_tmin_from_ot(e1["ot"], tmin_from_ot.FromOtOptions(verbose=False))
+    assert tm.tau == 0.0 and not tm.extra["bound"] and tm.stats["final_residual"] < 1e-9
+    assert math.isclose(tm.thrust_N, e1["tmin"].thrust_N, rel_tol=1e-8)
+    verdict = chain.existence_verdict(tm, 15.0)
+    assert verdict["exists"] and verdict["T_min_is"] == "minimum"
+
+
+def test_a_path_cut_short_gives_an_upper_bound_whose_throttle_is_recorded(e1, tmp_path):
+    """Stopped after a few steps, the route polishes its least-thrust path point at its own τ: a
+    transfer with throttle 1 − τ + τδ ≤ 1, so its T bounds T_min from above; the artifact keeps τ,
+    its samples the throttle, and the independent re-propagation replays that throttle."""
+    tm = tmin_from_ot.solve_tmin_from_ot(e1["ot"], tmin_from_ot.FromOtOptions(max_steps=6, verbose=False))
+    T_min = e1["tmin"].thrust_N
+    stopped = tm.extra["path_stopped"]
+    assert tm.extra["bound"] and 0.0 < tm.tau < 1.0 and stopped["reason"] and stopped["tau_reached"] <= tm.tau
+    assert T_min < tm.thrust_N <= 15.0
+    verdict = chain.existence_verdict(tm, 15.0)
+    assert verdict["exists"] and verdict["T_min_is"] == "upper bound"
+    assert verdict["exists"] is not chain.existence_verdict(tm, 0.5 * (T_min + tm.thrust_N))["exists"]   # None: undecided
+    path = tmp_path / "tmin_bound.json"
+    multirev.save(tm, path, CFG, 0.0, tm.extra)
+    smp = np.load(path.with_suffix(".npz"))
+    assert 1.0 - tm.tau <= smp["delta"].min() < smp["delta"].max() <= 1.0
+    back = multirev.load(path)
+    assert back.tau == tm.tau and float(back.prm["thrust"]) == float(tm.prm["thrust"])
+    check = verify.verify_ot(path)
+    assert abs(check["final_a_error_km"]) < 1.0 and abs(check["final_mass_error_kg"]) < 1e-3, check

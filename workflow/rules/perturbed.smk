@@ -403,11 +403,22 @@ def pt_existence_files():
 EX_TABLE = [f"{PTDIR}/existence.csv"] if pt_existence_files() else []
 
 
+EX_FROM_OT = {k: v for k, v in ((PT.get("existence") or {}).get("from_ot") or {}).items() if k != "cases"}
+EX_FROM_OT_CASES = ((PT.get("existence") or {}).get("from_ot") or {}).get("cases", [])
+
+
+def pt_existence_cfg(w):
+    """A from_ot case's check also depends on its options (``existence.from_ot``)."""
+    cfg = pt_config_for(w.case, w.model)
+    return {**cfg, "existence_from_ot": EX_FROM_OT} if w.case in EX_FROM_OT_CASES else cfg
+
+
 rule perturbed_existence:
-    input: src=PT_SRC + lib_sources("studies/existence"), eph=lambda w: pt_ephemeris(w.case, w.model)
+    input: src=PT_SRC + lib_sources("studies/existence"), eph=lambda w: pt_ephemeris(w.case, w.model),
+           ot=lambda w: [f"{PTDIR}/{w.case}/{w.model}.json"] if w.case in EX_FROM_OT_CASES else []
     output: pt_files("{case}/tmin_{model}")
     wildcard_constraints: case="e5|e7|e9", model="|".join(sorted(PT["models"]))
-    params: cfg=lambda w: pt_config_for(w.case, w.model), case="{case}", model="{model}", results=RESULTS
+    params: cfg=pt_existence_cfg, case="{case}", model="{model}", results=RESULTS
     log: f"{PTDIR}/logs/{{case}}_tmin_{{model}}.log"
     benchmark: f"{PTDIR}/benchmarks/{{case}}_tmin_{{model}}.tsv"
     resources: mem_mb=4000, runtime=60

@@ -1,5 +1,6 @@
 """The minimum-thrust existence check of one §4.2 case under one force model, from the zero guess
-(spaceopt.studies.existence); failure.json on non-convergence."""
+or, for the cases of existence.from_ot, from the case's OT artifact (spaceopt.studies.existence);
+failure.json on non-convergence."""
 import sys
 import time
 from pathlib import Path
@@ -9,6 +10,7 @@ from _step import run_step  # noqa: E402
 
 from spaceopt import artifacts  # noqa: E402
 from spaceopt.errors import ConvergenceError  # noqa: E402
+from spaceopt.indirect.tmin_from_ot import FromOtOptions  # noqa: E402
 from spaceopt.studies import existence as E, perturbed as P  # noqa: E402
 
 
@@ -20,7 +22,11 @@ def main(sm):
     artifacts.clear_failures(out)
     t0 = time.perf_counter()
     try:
-        tm, verdict = E.solve(tr, f"{case}/tmin_{model}", bool(cfg["cases"][case].get("lp_perturbed", False)))
+        if "existence_from_ot" in cfg:       # from the case's OT solution (existence.from_ot)
+            tm, verdict = E.solve_from_ot(P.load(sm.input.ot[0]), f"{case}/tmin_{model}",
+                                          FromOtOptions(**cfg["existence_from_ot"]))
+        else:
+            tm, verdict = E.solve(tr, f"{case}/tmin_{model}", bool(cfg["cases"][case].get("lp_perturbed", False)))
     except ConvergenceError as exc:
         artifacts.write_failure(artifacts.failure_path(out), exc, cfg, time.perf_counter() - t0)
         raise

@@ -76,6 +76,8 @@ class Solution:
     stats: dict
     thrust_N: float = float("nan")
     extra: dict = field(default_factory=dict)
+    tau: float = 1.0            # the point of the shooting model's homotopy that was solved: 1,
+    # its target problem; < 1 only for an upper bound on T_min (tmin_from_ot, model ('tmin', 'ot'))
 
     @property
     def K_f(self):
@@ -224,16 +226,20 @@ def solve_tmin(lp: Solution, options=None, label="tmin") -> Solution:
 
 
 def existence_verdict(tmin: Solution, thrust_N: float) -> dict:
-    """Does an OT transfer with thrust T exist over this angular range? (§3.4 decision rule)."""
-    n = tmin.transfer.n_rev
-    exists = thrust_N >= tmin.thrust_N
-    return {"thrust_N": thrust_N, "T_min_N": tmin.thrust_N, "exists": bool(exists),
-            "n_rev": n, "n_rev_needed_estimate": n * tmin.thrust_N / thrust_N,
-            "message": (f"transfer exists: T = {thrust_N:g} N >= T_min = {tmin.thrust_N:.8g} N"
-                        if exists else
-                        f"no transfer over {n:g} revolutions: T = {thrust_N:g} N < T_min = "
-                        f"{tmin.thrust_N:.8g} N; about {n * tmin.thrust_N / thrust_N:.1f} "
-                        f"revolutions would be needed")}
+    """Does an OT transfer with thrust T exist over this angular range? (§3.4 decision rule).
+
+    ``tmin`` may be an upper bound on T_min (``extra['bound']``, :mod:`.tmin_from_ot`): T at or
+    above it still decides "exists"; T below it decides nothing (``exists`` None)."""
+    n, T_min = tmin.transfer.n_rev, tmin.thrust_N
+    bound = bool(tmin.extra.get("bound"))
+    exists = True if thrust_N >= T_min else (None if bound else False)
+    name = "the upper bound on T_min" if bound else "T_min"
+    message = {True: f"transfer exists: T = {thrust_N:g} N >= {name} = {T_min:.8g} N",
+               False: (f"no transfer over {n:g} revolutions: T = {thrust_N:g} N < T_min = {T_min:.8g} N; "
+                       f"about {n * T_min / thrust_N:.1f} revolutions would be needed"),
+               None: f"undecided: T = {thrust_N:g} N is below {name} = {T_min:.8g} N"}[exists]
+    return {"thrust_N": thrust_N, "T_min_N": T_min, "T_min_is": "upper bound" if bound else "minimum",
+            "exists": exists, "n_rev": n, "n_rev_needed_estimate": n * T_min / thrust_N, "message": message}
 
 
 def solve_ot(lp: Solution, thrust_N: float, options=None, label="ot", blend_ref: float | None = None,
@@ -384,17 +390,18 @@ def final_model(sol: Solution) -> Model:
 
 
 def dense(sol: Solution, samples_per_rev: int = 200):
-    """Trajectory y(K) at τ = 1 on a uniform K grid: returns K [rad] and y (N × 2n)."""
+    """Trajectory y(K) at the solution's τ (1: its problem) on a uniform K grid: returns K [rad]
+    and y (N × 2n)."""
     y0 = initial_state(sol.shooting, jnp.asarray(sol.z), sol.prm)
     n = max(int(samples_per_rev * sol.transfer.n_rev), 200)
-    Ks, ys = _dense(final_model(sol), y0, sol.K_f, sol.prm, n, sol.shooting.max_steps)
+    Ks, ys = _dense(final_model(sol), y0, sol.K_f, sol.prm, n, sol.shooting.max_steps, sol.tau)
     return np.asarray(Ks), np.asarray(ys)
 
 
 @partial(jax.jit, static_argnums=(0, 4, 5))
-def _dense(model, y0, K_f, prm, n, max_steps):
+def _dense(model, y0, K_f, prm, n, max_steps, tau=1.0):
     Ks = jnp.linspace(0.0, K_f, n)
-    rhs = lambda K, y, args: flow_field(model, K, y, 1.0, args)
+    rhs = lambda K, y, args: flow_field(model, K, y, tau, args)
     out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, K_f, None, y0, args=prm,
                               stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-13),
                               saveat=diffrax.SaveAt(ts=Ks), max_steps=max_steps)

@@ -14,16 +14,28 @@ perturbed LP, T_min and OT chains all start from the zero guess):
    optimal-time condition;
 3. the verdict for the case's thrust (``chain.existence_verdict``).
 
+Where the (3.4.1) path folds (E7), the check starts instead from the case's converged OT
+solution and follows the T_min → OT homotopy back (:func:`solve_from_ot`,
+``spaceopt.indirect.tmin_from_ot``): it reaches T_min, or stops at a fold and gives an upper
+bound on it (``T_min_is``), which still decides "exists" for any thrust at or above it.
+
 Not in the dissertation; the results are ours (``results/perturbed/existence.csv``).
 """
 from __future__ import annotations
 
 from ..indirect import chain
 from ..indirect.chain import Solution
+from ..indirect.tmin_from_ot import FromOtOptions, solve_tmin_from_ot
 from ..indirect.transfer import Transfer
 
-COLUMNS = ("case", "model", "n_rev", "thrust_N", "T_min_N", "exists", "n_rev_needed", "tof_days", "K_f_deg",
-           "lp_perturbed")
+COLUMNS = ("case", "model", "n_rev", "thrust_N", "T_min_N", "T_min_is", "exists", "n_rev_needed", "tof_days",
+           "K_f_deg", "lp_perturbed", "route")
+
+
+def _with_verdict(tm: Solution, thrust_N: float) -> tuple[Solution, dict]:
+    verdict = chain.existence_verdict(tm, thrust_N)
+    tm.extra["verdict"] = verdict
+    return tm, verdict
 
 
 def solve(tr: Transfer, label: str, lp_perturbed: bool = False, options=None) -> tuple[Solution, dict]:
@@ -31,43 +43,58 @@ def solve(tr: Transfer, label: str, lp_perturbed: bool = False, options=None) ->
     the verdict for ``tr.thrust``."""
     lp = chain.solve_lp(tr, options, label=f"{label}/lp", perturbed=lp_perturbed and tr.perturbed)
     tm = chain.solve_tmin(lp, options, label=f"{label}/tmin")
-    verdict = chain.existence_verdict(tm, tr.thrust)
-    tm.extra.update({"verdict": verdict, "lp_perturbed": lp.shooting.model.perturbed,
+    tm.extra.update({"lp_perturbed": lp.shooting.model.perturbed, "route": "lp-tmin",
                      "lp": {k: lp.extra[k] for k in ("J_LP_m2s3", "dv_m_s", "tof_s")}})
-    return tm, verdict
+    return _with_verdict(tm, tr.thrust)
+
+
+def solve_from_ot(ot: Solution, label: str, options: FromOtOptions = FromOtOptions()) -> tuple[Solution, dict]:
+    """T_min, or an upper bound on it, from the converged OT solution ``ot`` of the case, and the
+    verdict for its thrust."""
+    tm = solve_tmin_from_ot(ot, options, label=f"{label}/tmin from ot")
+    tm.extra["lp_perturbed"] = False
+    return _with_verdict(tm, ot.thrust_N)
 
 
 def row(case: str, model: str, payload: dict) -> dict:
     """One row of the table from a minimum-thrust artifact."""
     v, s = payload["extra"]["verdict"], payload["scalars"]
     return {"case": case, "model": model, "n_rev": v["n_rev"], "thrust_N": v["thrust_N"],
-            "T_min_N": v["T_min_N"], "exists": v["exists"], "n_rev_needed": v["n_rev_needed_estimate"],
-            "tof_days": s["tof_days"], "K_f_deg": s["K_f_deg"], "lp_perturbed": payload["extra"]["lp_perturbed"]}
+            "T_min_N": v["T_min_N"], "T_min_is": v.get("T_min_is", "minimum"), "exists": v["exists"],
+            "n_rev_needed": v["n_rev_needed_estimate"], "tof_days": s["tof_days"], "K_f_deg": s["K_f_deg"],
+            "lp_perturbed": payload["extra"]["lp_perturbed"], "route": payload["extra"].get("route", "lp-tmin")}
 
 
-def _exists(row: dict) -> bool:
-    """The verdict of a row, as written (bool) or read back from the CSV (text)."""
-    return row["exists"] is True or str(row["exists"]) == "True"
+def _verdict(row: dict):
+    """The verdict of a row, as written (True, False, None: undecided) or read back from the CSV (text)."""
+    return {"True": True, "False": False}.get(str(row["exists"]))
+
+
+def _is_bound(row: dict) -> bool:
+    return row.get("T_min_is", "minimum") == "upper bound"
 
 
 def sentence(rows: list, model_names: dict) -> str:
     """LaTeX for the paper: T_min per case and model (``model_names``: model key → LaTeX), the
-    change against the unperturbed value (in per cent, or as a factor), and where the verdict for the case's thrust differs
-    between the models. '' without rows."""
+    change against the unperturbed value (in per cent, or as a factor), and where the verdict for
+    the case's thrust differs between the models; an upper bound is written "≤" and its route
+    named. '' without rows."""
     parts = []
     for case in dict.fromkeys(r["case"] for r in rows):
         rs = [r for r in rows if r["case"] == case]
-        base = next((float(r["T_min_N"]) for r in rs if r["model"] == "unperturbed"), None)
+        base = next((float(r["T_min_N"]) for r in rs if r["model"] == "unperturbed" and not _is_bound(r)), None)
         items = []
         for r in rs:
             t, name = float(r["T_min_N"]), model_names.get(r["model"], r["model"])
-            ratio = t / base if base and r["model"] != "unperturbed" else None
+            ratio = t / base if base and r["model"] != "unperturbed" and not _is_bound(r) else None   # not of bounds
             change = "" if ratio is None else (f" ({100 * (ratio - 1):+.1f}\\,\\%)" if 0.5 < ratio < 2
                                                else f" ($\\times{ratio:.3g}$)")
-            items.append(f"{name} {t:.4g}~N{change}")
+            le = "$\\le$ " if _is_bound(r) else ""
+            items.append(f"{name} {le}{t:.4g}~N{change}")
         text = (f"{case.upper()} ({float(rs[0]['n_rev']):g} revolutions, $T = {float(rs[0]['thrust_N']):g}$~N): "
                 + "; ".join(items))
-        no, yes = [r for r in rs if not _exists(r)], [r for r in rs if _exists(r)]
+        no, yes = [r for r in rs if _verdict(r) is False], [r for r in rs if _verdict(r) is True]
+        open_ = [r for r in rs if _verdict(r) is None]
         names = lambda group: ", ".join(model_names.get(r["model"], r["model"]) for r in group)  # noqa: E731
         if no and yes:
             text += (f"; the thrust is below $T_{{min}}$ for {names(no)} (no transfer over this angular range; "
@@ -75,6 +102,12 @@ def sentence(rows: list, model_names: dict) -> str:
                      + f" revolutions would be needed) and above it for {names(yes)}")
         elif no:
             text += f"; the thrust is below $T_{{min}}$ for {names(no)}: no transfer over this angular range"
+        if open_:
+            text += f"; the thrust is below the upper bound for {names(open_)}: undecided"
+        if any(_is_bound(r) for r in rs):
+            text += (" (upper bounds: the (3.4.1) path from the LP folds, and the $T_{min}\\to$OT homotopy followed "
+                     "back from the case's minimum-fuel solution stops at a fold short of $T_{min}$; its point of least "
+                     "thrust is a transfer with a throttle at most 1, so every thrust at or above the bound has one)")
         parts.append(text)
     if not parts:
         return ""

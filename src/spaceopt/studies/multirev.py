@@ -140,7 +140,8 @@ def save(sol: Solution, json_path, cfg: dict, wall_time_s: float, extra: dict | 
         "z": np.asarray(sol.z).tolist(), "unknowns": sol.shooting.unknown_names(),
         "model": {"kind": sol.shooting.model.kind, "homotopy": sol.shooting.model.homotopy,
                   "perturbed": sol.shooting.model.perturbed, "fixed_time": sol.shooting.fixed_time,
-                  "free_costates": list(sol.shooting.free_costates)},
+                  "free_costates": list(sol.shooting.free_costates),
+                  **({} if sol.tau == 1.0 else {"tau": sol.tau, "thrust_pinned_N": float(sol.prm["thrust"]) * sol.transfer.force_unit})},
         "transfer": sol.transfer.as_dict(), "thrust_N": sol.thrust_N, "units": sol.transfer.units(),
         "provenance": artifacts.provenance(cfg, wall_time_s),
     }
@@ -158,9 +159,10 @@ def load(json_path) -> Solution:
     sh = Shooting(Model(m["kind"], m["homotopy"], m.get("perturbed", False)), tuple(m["free_costates"]),
                   fixed_time=m.get("fixed_time", False), **tr.integration())
     thrust = data["thrust_N"]
-    prm = tr.params(thrust=None if thrust is None or (isinstance(thrust, float) and math.isnan(thrust)) else thrust)
+    pinned = m.get("thrust_pinned_N", thrust)          # a point of a homotopy at τ < 1 (model 'tau')
+    prm = tr.params(thrust=None if pinned is None or (isinstance(pinned, float) and math.isnan(pinned)) else pinned)
     sol = Solution(data["scalars"]["stage"], sh, np.asarray(data["z"]), prm, tr, data["solver"],
-                   thrust_N=thrust if thrust is not None else float("nan"))
+                   thrust_N=thrust if thrust is not None else float("nan"), tau=m.get("tau", 1.0))
     if sol.stage == "lp":
         sol.extra.update({k: data["scalars"][k] for k in ("J_LP_m2s3", "dv_m_s")})
         sol.extra["tof_s"] = data["scalars"]["tof_days"] * DAY

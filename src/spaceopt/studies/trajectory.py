@@ -14,7 +14,7 @@ import jax.numpy as jnp
 from ..elements import mee_to_cartesian, mee_to_kepler
 from ..indirect import hamiltonians as hm
 from ..indirect.chain import Solution, dense
-from ..indirect.flow import Model, ot_delta
+from ..indirect.flow import Model, ot_delta, tmin_ot_delta
 
 
 def _frame(r, v):
@@ -24,7 +24,9 @@ def _frame(r, v):
     return jnp.cross(e_n, e_r), e_r, e_n
 
 
-def _sample_point(stage, K, y, prm):
+def _sample_point(stage, K, y, prm, tmin_ot_tau=None):
+    """One sample; ``tmin_ot_tau``: the τ of a point of the T_min → OT homotopy (an upper bound on
+    T_min, :mod:`spaceopt.indirect.tmin_from_ot`), whose throttle is 1 − τ + τ δ(S_τ, ε₁)."""
     n = hm.N_STATE + (1 if stage == "tmin" else 0)
     x, lam = y[:n], y[n:]
     g = hm.geometry(K, x)
@@ -39,6 +41,9 @@ def _sample_point(stage, K, y, prm):
         accel = g["k2"] * An            # LP optimal acceleration a = k2 A (2.2.7)
         S = jnp.nan
         delta = 1.0
+    elif stage == "tmin" and tmin_ot_tau is not None:
+        delta, S = tmin_ot_delta(K, y, tmin_ot_tau, prm)
+        accel = delta * x[hm.THRUST] / x[hm.MASS]
     elif stage == "tmin":
         accel = x[hm.THRUST] / x[hm.MASS]
         S = hm.switching_tmin(K, x, lam, prm)
@@ -56,7 +61,8 @@ def sample(sol: Solution, samples_per_rev: int = 200) -> dict:
     """Physical samples of ``sol`` on a uniform grid in K."""
     tr = sol.transfer
     Ks, ys = dense(sol, samples_per_rev)
-    pts = jax.vmap(lambda K, y: _sample_point(sol.stage, K, y, sol.prm))(jnp.asarray(Ks), jnp.asarray(ys))
+    tmin_ot_tau = sol.tau if sol.shooting.model.kind == "tmin" and sol.shooting.model.homotopy == "ot" else None
+    pts = jax.vmap(lambda K, y: _sample_point(sol.stage, K, y, sol.prm, tmin_ot_tau))(jnp.asarray(Ks), jnp.asarray(ys))
     pts = {k: np.asarray(v) for k, v in pts.items()}
     mass = pts["m"] * tr.m0
     accel = pts["accel"] * tr.du / tr.tu**2

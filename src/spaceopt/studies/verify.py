@@ -40,7 +40,10 @@ def recorded_control(data: dict, smp: dict):
     (thrust acceleration δ(S(t)) T/m e(t) [m/s²], mass flow −δ T/c [kg/s]): e(t) and S(t) cubic
     splines of the samples, δ the smoothed throttle (3.3.2) at ε_f; δ = 1 on a minimum-thrust
     trajectory (§3.4: the engine never switches off; its samples' S is not an OT switching
-    function: δ(S) of it fell to 0.5–0.7 on E9's and lost 0.4 kg of its 1.06 kg of propellant).
+    function: δ(S) of it fell to 0.5–0.7 on E9's and lost 0.4 kg of its 1.06 kg of propellant);
+    on an upper bound on T_min (a point of the T_min → OT homotopy at τ > 0, its JSON model has
+    ``tau``; :mod:`spaceopt.indirect.tmin_from_ot`) δ is a spline of the recorded throttle
+    1 − τ + τ δ(S_τ): E7's replay at δ = 1 amplified the 5e-5 difference to 50 000 km.
     """
     tr = data["transfer"]
     T, c, eps = data["thrust_N"], tr["isp"] * 9.80665, tr["eps_final"]
@@ -50,10 +53,14 @@ def recorded_control(data: dict, smp: dict):
     t = t[keep]
     S = CubicSpline(t, smp["S"][keep])
     e = CubicSpline(t, smp["direction"][keep])
+    recorded = CubicSpline(t, smp["delta"][keep]) if "tau" in data["model"] else None
 
     def thrust(tt, m):
         s = S(tt)
-        delta = 1.0 if always_on else 0.5 * (1.0 + s / math.sqrt(s * s + C_SMOOTH * eps * eps))
+        if recorded is not None:
+            delta = float(recorded(tt))
+        else:
+            delta = 1.0 if always_on else 0.5 * (1.0 + s / math.sqrt(s * s + C_SMOOTH * eps * eps))
         d = e(tt)
         return delta * T / m * (d / np.linalg.norm(d)), -delta * T / c
 

@@ -1,0 +1,153 @@
+"""Minimum thrust from the minimum-fuel side: the T_min → OT homotopy followed backwards.
+
+The existence check of §3.4 solves the minimum-thrust problem by the (3.4.1) homotopy from the
+LP (:func:`.chain.solve_tmin`). Where that path folds (E7, GTO → Molniya over 100 revolutions:
+at τ 0.473, unperturbed and at 20 and 50 revolutions alike), a converged OT solution at the
+case's thrust T_OT gives a second way in. The route LP → T_min → OT has a homotopy
+(``flow.Model('tmin', 'ot')``, :func:`.chain.solve_ot_from_tmin`) whose τ = 0 end is the T_min
+problem and whose τ = 1 end is the OT problem at ε₁ with the thrust, a state, pinned at T_OT:
+
+    H_τ = −(1 − τ) ½T² + δ_τ T k1 [k2 |A_τ|/m − (p_m + τ)/c] + k1 p_t,   δ_τ = 1 − τ + τ δ(S, ε₁),
+    thrust row (1 − τ) p_T(K_f) + τ (T − T_OT) = 0.
+
+Here it is followed from τ = 1 to τ = 0, in arclength, from the OT solution moved to ε₁:
+
+1. the path parameter s runs from 0 (τ = 1) to 1 (τ = 0) with τ(s) geometric near τ = 0
+   (:func:`tau_of`): the propellant weight τ in S is measured against costates of the size of
+   T, so the path's natural measure there is log τ;
+2. the thrust row is re-weighted to (1 − τ) w p_T(K_f) + τ (T − T_OT) (:func:`reversed_map`),
+   w = |T_OT / p_T(K_f)| at the start unless given: as written, E7's p_T(K_f) is 10⁵ times T in
+   the problem's units and the path folds at once;
+3. a path that reaches τ = 0 is the T_min solution (``tau`` 0); one that stops short (E7: a fold
+   near τ 1e-4, where λ_m + τ → 0 and the last coasts vanish) gives an **upper bound**: the path
+   point of least T that Newton polishes at its own fixed τ (:func:`polished_least_thrust`) is a
+   transfer the dynamics allow with thrust T·δ_τ ≤ T, so every thrust of at least T has one,
+   T_min ≤ T. The solution keeps its τ; its samples carry the throttle δ_τ
+   (:mod:`spaceopt.studies.trajectory`) and the independent re-propagation replays it.
+
+Written here rather than with a library: the path follower is the project's own
+(:class:`.continuation.ArclengthContinuation`), this module only maps the homotopy onto it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import jax.numpy as jnp
+import numpy as np
+
+from ..errors import ConvergenceError
+from . import hamiltonians as hm
+from .chain import Solution, _path_tolerances, shooting_for, smoothing_to, start_vector
+from .continuation import ArclengthContinuation, ArclengthOptions
+from .shooting import final_state, shoot
+
+
+@dataclass(frozen=True)
+class FromOtOptions:
+    """How the T_min → OT homotopy is followed back from an OT solution (module docstring)."""
+    tau_decades: float = 8.0        # k of tau_of; 0: τ = 1 − s
+    weight: float = 0.0             # w of p_T(K_f) in the thrust row; 0: |T_OT / p_T(K_f)| at the start
+    h_max: float = 0.05             # arclength step cap
+    tol_step: float = 1e-6          # corrector tolerance on the path
+    max_steps: int = 120            # path steps before the bound is taken (E7: the fold after ~100)
+    candidates: int = 8             # least-thrust path points tried by the bound's polish
+    verbose: bool = True
+
+
+def tau_of(s, decades):
+    """τ(s) from 1 (s = 0) to 0 (s = 1), and dτ/ds: τ = 1 − s for ``decades`` = 0, else
+    τ = (10^(−k s) − 10^(−k)) / (1 − 10^(−k)), k = ``decades``."""
+    if decades == 0:
+        return 1.0 - s, -1.0
+    q, floor = 10.0 ** (-decades * s), 10.0 ** (-decades)
+    return (q - floor) / (1.0 - floor), -decades * np.log(10.0) * q / (1.0 - floor)
+
+
+def reversed_map(shoot_at, weight, T_ot, decades, trace=None):
+    """f(z, s) = f(z, τ(s)) with the thrust row (1 − τ) p_T(K_f) + τ (T − T_OT) replaced by
+    (1 − τ) w p_T(K_f) + τ (T − T_OT) = w·row + (1 − w) τ (T − T_OT); ``shoot_at(z, τ)`` returns
+    :func:`.shooting.shoot`'s tuple. ``trace`` (a list) collects (τ, z, |f|) of every evaluation."""
+    def at(z, s):
+        tau, dtau = tau_of(s, decades)
+        f, J, ftau, nsteps, ok = shoot_at(z, tau)
+        dT = z[-1] - T_ot
+        f = f.at[-1].set(weight * f[-1] + (1.0 - weight) * tau * dT)
+        J = J.at[-1].set(weight * J[-1]).at[-1, -1].add((1.0 - weight) * tau)
+        ftau = ftau.at[-1].set(weight * ftau[-1] + (1.0 - weight) * dT)
+        if trace is not None:
+            trace.append((float(tau), np.array(z, dtype=float), float(jnp.linalg.norm(f))))
+        return f, J, ftau * dtau, nsteps, ok
+    return at
+
+
+def polished_least_thrust(trace, evaluate, tol, candidates):
+    """The path point of least T that Newton polishes at its fixed τ: (τ, z, |f|), or None.
+
+    Only points with |f| < ``tol`` count (on the path, not rejected corrector iterates). They are
+    tried in order of increasing T: at a fold in τ, ∂f/∂z is singular and the fixed-τ Newton
+    can fail on the least-T point (E7 J2). ``evaluate(z, τ)`` returns :func:`shoot`'s tuple."""
+    on_path = sorted((p for p in trace if p[2] < tol), key=lambda p: p[1][-1])
+    for tau, z, _ in on_path[:candidates]:
+        for _ in range(10):
+            f, J, _, _, ok = evaluate(z, tau)
+            norm = float(jnp.linalg.norm(f))
+            if not ok or not np.isfinite(norm):
+                break
+            if norm < 1e-11:
+                return tau, z, norm
+            z = z - np.linalg.solve(np.asarray(J), np.asarray(f))
+    return None
+
+
+def thrust_row_weight(sh, z, prm) -> float:
+    """|T_OT / p_T(K_f)| at the OT end (τ = 1) of the path: the weight that puts both terms of
+    the thrust row on one scale."""
+    yf, _ = final_state(sh, jnp.asarray(z), 1.0, prm)
+    p_T = float(yf[sh.model.n + hm.THRUST])
+    return abs(float(z[-1]) / p_T) if p_T != 0.0 else 1.0
+
+
+def solve_tmin_from_ot(ot: Solution, options: FromOtOptions = FromOtOptions(), label="tmin from ot") -> Solution:
+    """T_min, or an upper bound on it, from the OT solution ``ot`` (module docstring).
+
+    Returns a 'tmin' Solution of the T_min → OT homotopy at its ``tau``: 0 where the path
+    reached the T_min problem, > 0 for the bound (``extra['bound']``). Raises ConvergenceError
+    where the path stops short and no path point polishes.
+    """
+    if ot.stage != "ot":
+        raise ValueError(f"solve_tmin_from_ot needs an OT solution, got stage {ot.stage!r}")
+    tr = ot.transfer
+    start = smoothing_to(ot, tr.eps_blend, label=f"{label} eps up") if float(ot.prm["eps_final"]) != tr.eps_blend else ot
+    sh = shooting_for("tmin", "ot", tr)
+    prm = tr.params(thrust=ot.thrust_N)
+    z0 = start_vector(sh, start.costates(), start.K_f, ot.thrust_N / tr.force_unit)
+    weight = options.weight or thrust_row_weight(sh, z0, prm)
+    rtol, atol = _path_tolerances(sh)
+    trace = []
+    on_path = reversed_map(lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm, rtol, atol),
+                           weight, z0[-1], options.tau_decades, trace)
+    at_end = lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm)  # noqa: E731
+    cont = ArclengthContinuation(on_path, ArclengthOptions(h_max=options.h_max, tol_step=options.tol_step,
+                                                           max_steps=options.max_steps, verbose=options.verbose,
+                                                           label=f"{label} (OT -> T_min)"),
+                                 polish=reversed_map(at_end, weight, z0[-1], options.tau_decades))
+    extra = {"route": "ot-tmin", "weight": weight, "T_ot_N": ot.thrust_N, "eps_blend": tr.eps_blend,
+             "eps_up": start.stats if start is not ot else None}
+    try:
+        z, _ = cont.run(z0)
+        tau, norm, stopped = 0.0, cont.stats.residual, None
+    except ConvergenceError as exc:
+        fixed_tau = reversed_map(at_end, weight, z0[-1], 0.0)        # s = 1 − τ: at a fixed τ
+        found = polished_least_thrust(trace, lambda zz, t: fixed_tau(zz, 1.0 - t), options.tol_step,
+                                      options.candidates)
+        if found is None:
+            exc.diagnosis["bound"] = "no least-thrust path point polished at its fixed tau"
+            raise
+        tau, z, norm = found
+        stopped = {"reason": exc.diagnosis.get("reason"),      # the follower's "tau" is s here
+                   "tau_reached": min(p[0] for p in trace if p[2] < options.tol_step)}
+    stats = {**cont.stats.as_dict(), "path": "arclength", "final_residual": norm}
+    extra.update({"tau": tau, "bound": tau > 0.0, "throttle_min": 1.0 - tau, "path_stopped": stopped})
+    sol = Solution("tmin", sh, np.asarray(z, float), prm, tr, stats, extra=extra, tau=tau)
+    sol.thrust_N = float(z[-1]) * tr.force_unit
+    return sol
