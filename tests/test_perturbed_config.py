@@ -1205,3 +1205,16 @@ def test_the_e6_latex_tables_add_the_dates_where_another_familys_extremal_is_hea
     assert "2021-05-08" not in heavier
     assert R.latex(tabs, e6_envelope=env[:1]) == R.latex(tabs)
     assert R.latex(tabs).count(r"\begin{table}") == 1
+
+
+def test_the_existence_runs_leave_out_the_skipped_models_and_name_a_bad_one():
+    runs = P.existence_runs(PC)
+    assert ("e7", "unperturbed") in runs and ("e7", "j2") in runs and ("e7", "g44_moon_sun") not in runs
+    assert ("e9", "g44_moon_sun") in runs and runs.index(("e5", "unperturbed")) == 0
+    bad = copy.deepcopy(PC)
+    bad["existence"]["skip"] = {"e7": ["g44"]}
+    with pytest.raises(ConfigError, match=r"perturbed.existence.skip.e7='g44'.*not a model of the check"):
+        P.existence_runs(bad)
+    bad["existence"] = {"cases": [e for e in PC["existence"]["cases"] if e != "e7"], "from_ot": {"cases": ["e7"]}}
+    with pytest.raises(ConfigError, match=r"from_ot.cases='e7'"):
+        P.existence_runs(bad)

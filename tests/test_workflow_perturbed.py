@@ -197,13 +197,14 @@ def test_the_report_pass_leaves_out_the_failed_solves_and_those_that_start_from_
 
 def test_the_e7_existence_check_starts_from_the_e7_ot_solves():
     """existence.from_ot (E7: the (3.4.1) path from the LP folds): each E7 minimum-thrust job
-    reads the E7 OT artifact of its model, and its table row is planned; E5 and E9 keep the
-    route from the zero guess (no OT input)."""
+    reads the E7 OT artifact of its model (the full model is skipped), and its table row is
+    planned; E5 and E9 keep the route from the zero guess (no OT input)."""
     rc, out = smk("-n", "--forceall", "--cores", "2", "results/perturbed/existence.csv")
     assert rc == 0, out[-2000:]
     jobs = planned_inputs(out, "perturbed_existence")
-    for model in PT["cases"]["e7"]["models"]:
+    for model in ("unperturbed", "j2"):
         assert f"results/perturbed/e7/{model}.json" in jobs[f"results/perturbed/e7/tmin_{model}.json"]
+    assert "results/perturbed/e7/tmin_g44_moon_sun.json" not in jobs           # existence.skip
     assert not any(i.startswith("results/perturbed/e9/") and not i.endswith("_window.json")
                    for i in jobs["results/perturbed/e9/tmin_j2.json"]), jobs["results/perturbed/e9/tmin_j2.json"]
     table = planned_inputs(out, "perturbed_existence_table")["results/perturbed/existence.csv"]

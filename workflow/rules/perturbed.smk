@@ -14,11 +14,11 @@
 import os
 from spaceopt.studies.failed_solves import diagnosis, failures_sentence, left_out, without_failed
 from spaceopt.studies.perturbed import (e8_count_start, e8_model_steps, e8_runs, e8_skipped, e8_smoothing,
-                                        scan_dates, scan_run_dates, scan_source)
+                                        existence_runs, scan_dates, scan_run_dates, scan_source)
 from spaceopt.studies.scan_families import link_pairs, link_settings, start_pairs
 from spaceopt.studies.scan_walks import walk_dates, walk_settings
 
-check_section("perturbed", physical=lambda pc: (scan_run_dates(pc), e8_runs(pc)))
+check_section("perturbed", physical=lambda pc: (scan_run_dates(pc), e8_runs(pc), existence_runs(pc)))
 PT = config["perturbed"]
 PTDIR = f"{RESULTS}/perturbed"
 PT_SRC = lib_sources("indirect", "elements", "forces", "ephemeris", "frames", "artifacts",
@@ -388,8 +388,7 @@ rule perturbed_force_shares_table:
 # Does the transfer exist with the perturbations on? The minimum-thrust problem of each listed case
 # under the unperturbed model and each of the case's models, from the zero guess
 # (spaceopt.studies.existence; perturbed.existence, null: off)
-EX_CASES = [c for c in (PT.get("existence") or {}).get("cases", []) if c in PT["run"]]
-EX_RUNS = [(c, m) for c in EX_CASES for m in dict.fromkeys(["unperturbed", *PT["cases"][c]["models"]])]
+EX_RUNS = existence_runs(PT)
 if REPORT_FAILED:        # the report pass: minimum-thrust solves that failed are left out (failed_solves)
     PT_FAILED["existence"] = left_out(EX_RUNS, lambda r: None, lambda r: diagnosis(f"{PTDIR}/{r[0]}/tmin_{r[1]}.json"))
 

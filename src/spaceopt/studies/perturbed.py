@@ -667,6 +667,25 @@ def e8_skipped(pc: dict) -> list[tuple[str, float]]:
     return [r for r in e8_runs({**pc, "e8": {**pc["e8"], "skip_n_rev": None}}) if r not in runs]
 
 
+def existence_runs(pc: dict) -> list[tuple[str, str]]:
+    """(case, model) of the minimum-thrust existence check (``perturbed.existence``): each listed
+    case that is run, unperturbed first and then the case's models, less those ``skip`` names.
+    Checked: the skipped models are models of the check, the from_ot cases are listed cases."""
+    ex = pc.get("existence") or {}
+    cases = [c for c in ex.get("cases", []) if c in pc["run"]]
+    for c in (ex.get("from_ot") or {}).get("cases", []):
+        if c not in ex.get("cases", []):
+            raise ConfigError("perturbed.existence.from_ot.cases", c, "not a case of perturbed.existence.cases")
+    runs = {c: list(dict.fromkeys(["unperturbed", *pc["cases"][c]["models"]])) for c in cases}
+    skip = ex.get("skip") or {}
+    for c, models in skip.items():
+        for m in models:
+            if c in runs and m not in runs[c]:
+                raise ConfigError(f"perturbed.existence.skip.{c}", m,
+                                  f"not a model of the check (expected one of {', '.join(runs[c])})")
+    return [(c, m) for c in cases for m in runs[c] if m not in skip.get(c, [])]
+
+
 # ---------------------------------------------------------------- E9 ΔΩ budget
 
 def j2_secular_rates(orbit: Orbit, mu: float, j2: float, radius: float) -> dict:
