@@ -176,4 +176,5 @@ def test_a_path_cut_short_gives_an_upper_bound_whose_throttle_is_recorded(e1, tm
     back = multirev.load(path)
     assert back.tau == tm.tau and float(back.prm["thrust"]) == float(tm.prm["thrust"])
     check = verify.verify_ot(path)
-    assert abs(check["final_a_error_km"]) < 1.0 and abs(check["final_mass_error_kg"]) < 1e-3, check
+    # 0.05 km at 200 samples per revolution (6.7 km with the samples' primer shifted as at τ = 0)
+    assert check["final_position_vs_solver_km"] < 0.5 and abs(check["final_mass_error_kg"]) < 1e-4, check

@@ -30,7 +30,8 @@ def _sample_point(stage, K, y, prm, tmin_ot_tau=None):
     n = hm.N_STATE + (1 if stage == "tmin" else 0)
     x, lam = y[:n], y[n:]
     g = hm.geometry(K, x)
-    shift = -0.5 * x[hm.THRUST] ** 2 if stage == "tmin" else 0.0
+    weight = 1.0 if tmin_ot_tau is None else 1.0 - tmin_ot_tau        # the p_LK shift of A_τ (h_tmin_ot)
+    shift = -weight * 0.5 * x[hm.THRUST] ** 2 if stage == "tmin" else 0.0
     A = hm.primer(x, lam, g, shift)
     An = hm.safe_norm(A)
     mee = jnp.stack([x[hm.P], x[hm.EX], x[hm.EY], x[hm.IX], x[hm.IY], g["L"]])
