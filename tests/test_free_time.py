@@ -364,7 +364,8 @@ def test_where_the_family_folds_at_eps_f_the_search_goes_across_at_a_larger_eps(
 
 
 def test_a_lift_that_finds_nothing_leaves_the_family_at_eps_f():
-    """The lifted search runs out of solves (lift_max_points 3): the reason names both searches,
+    """The lifted search runs out of solves (lift_max_points 3) next to the origin: the descent
+    where its |φ| is least lands on the origin's branch again, the reason names both searches,
     and the family, δ and the search are back at ε_f (the record's free-time residual is
     evaluated there)."""
     fam = LiftFamily(probe_days=0.3, max_points=40)
@@ -374,5 +375,48 @@ def test_a_lift_that_finds_nothing_leaves_the_family_at_eps_f():
     origin = s.solve(t0, z0)
     delta = s.delta
     found = s.across_branches(origin, s.bracket(origin))
-    assert isinstance(found, str) and "folds" in found and "at eps 0.001: no sign change" in found
+    assert isinstance(found, str) and "folds" in found and "after the lift" in found
+    assert "no sign change" in s.lift_failed and s.lift_bracket is None
     assert fam.eps == fam.eps_f and not s.at_lift and s.delta == delta and s.lifted
+
+
+def test_a_lift_that_brackets_nothing_still_descends_where_phi_came_closest_to_zero():
+    """E8 full 500 (scratch): the lifted march ends without a sign change of φ, but the descent
+    from its point of least |φ| lands beyond the ε_f folds, and the search at ε_f from there finds
+    the maximum at u = 1.2 (a maximum certified at ε_f like any other)."""
+    fam = LiftFamily(probe_days=0.3, max_points=40)
+    fam.opt = dataclasses.replace(fam.opt, lift_eps=LiftFamily.EPS_LIFT, lift_probe_days=0.3, lift_max_points=12)
+    t0, z0 = fam.start(-1.5)
+    s = ft.MaximumSearch(fam, tu=ft.DAY, m0_kg=1.0)
+    origin = s.solve(t0, z0)
+    left, right = s.across_branches(origin, s.bracket(origin))
+    assert s.lift_failed and s.lift_bracket is None and max(p.phi for p in s.lifted) < 0.0
+    assert s.root(left, right).z[0] == pytest.approx(1.2, abs=1e-6) and fam.eps == fam.eps_f
+
+
+class JumpFamily(ModelFamily):
+    """φ = t_f − 2 with, for t_f in (1.7, 1.9) reached by a step longer than 0.1 d, Newton's
+    point on another branch: 0.5 lighter with φ still < 0 (from a start too far away)."""
+
+    def __init__(self):
+        super().__init__(lambda t: t - 2.0, lambda t: -0.5 * (t - 2.0) ** 2, probe_days=0.25)
+        self.last, self.jumped = 1.0, []
+
+    def point(self, tf, z, J=None):
+        p = super().point(tf, z, J)
+        if 1.7 < tf < 1.9 and abs(tf - self.last) > 0.1:
+            self.jumped.append(tf)
+            return ft.FixedTimePoint(tf, p.z, p.J, p.m_f - 0.5, p.phi)
+        self.last = tf
+        return p
+
+
+def test_a_step_that_lands_on_a_lighter_branch_is_retried_shorter():
+    """E8 full 500 at ε 1e-3 (this session's DAG run): a march step converges on another branch,
+    m_f lower while φ < 0, against dm_f/dt_f = −φ. The march rejects the point (branch_jump),
+    retries the step shorter, passes the stretch and brackets the maximum at t_f = 2 with no
+    point of the other branch kept."""
+    fam = JumpFamily()
+    s, (left, right), best = search(fam, 1.0)
+    assert fam.jumped and not any(p.tf in fam.jumped and p.m_f < -0.4 for p in s.points)
+    assert s.arc_points == 0 and best.tf == pytest.approx(2.0, abs=1e-6)

@@ -27,6 +27,7 @@ own bracket search at the lifted ε instead of this fixed-step march; this scrip
 march, whose points at fixed steps show the lifted family.
 
     python docs/experiments/e8_eps_lift.py START EPS_LIFT TF_TO [--tf-step D] [--eps-steps N] [--at-root]
+    python docs/experiments/e8_eps_lift.py START EPS_LIFT 0 --library      # the library's own lift (TF_TO unused)
 
 START: a saved free-time solution (.json), e.g. the end game's ``free_time_start.json``.
 """
@@ -37,6 +38,7 @@ import time
 
 import numpy as np
 
+from spaceopt.config import load_yaml
 from spaceopt.constants import DAY
 from spaceopt.indirect.free_time import FixedTimeFamily, MaximumOptions, MaximumSearch
 from spaceopt.studies import perturbed as P
@@ -66,14 +68,22 @@ def main():
     ap.add_argument("--tf-step", type=float, default=0.1, help="days")
     ap.add_argument("--eps-steps", type=int, default=4)
     ap.add_argument("--at-root", action="store_true")
+    ap.add_argument("--library", action="store_true",
+                    help="instead of 2.-4.: the library's MaximumSearch.across_branches from the start, with the "
+                         "DAG's options (tof_maximum of E8) and eps_lift, tf_step as lift_eps, lift_probe_days")
     args = ap.parse_args()
 
     t_start = time.perf_counter()
     sol = P.load(args.start)
     tr, prm = sol.transfer, sol.prm
     eps_f = float(prm["eps_final"])
-    opt = MaximumOptions(probe_days=0.05, tof_tol_days=1e-4, max_points=16, max_newton=6,
-                         lift_steps=args.eps_steps, lift_probe_days=args.tf_step, label="eps lift")
+    if args.library:        # the DAG's end-game options (perturbed.numerics.tof_maximum)
+        dag = load_yaml("config/studies/perturbed.yaml")["perturbed"]["numerics"]["tof_maximum"]
+        opt = MaximumOptions(**dag, lift_eps=args.eps_lift, lift_steps=args.eps_steps,
+                             lift_probe_days=args.tf_step, label="across branches")
+    else:
+        opt = MaximumOptions(probe_days=0.05, tof_tol_days=1e-4, max_points=16, max_newton=6,
+                             lift_steps=args.eps_steps, lift_probe_days=args.tf_step, label="eps lift")
     family = FixedTimeFamily(sol.shooting, prm, opt)
     search = MaximumSearch(family, tr.tu, tr.m0)
     tf0 = family.end_time(sol.z)
@@ -81,6 +91,10 @@ def main():
     if p0 is None:
         raise SystemExit("the fixed-time point at the start's own t_f did not converge")
 
+    if args.library:
+        found = search.across_branches(p0, "the search at eps_f from here fails (thirty-first session; not repeated)")
+        report(search, family, tr, found, t_start)
+        return
     search.log(f"1. lift eps {eps_f:g} -> {args.eps_lift:g} at t_f {search.days(tf0):.5f} d")
     lifted = search.move_eps(p0, args.eps_lift)
     if lifted is None:
@@ -111,7 +125,11 @@ def main():
 
     search.log("4. the end game's bracket search at eps_f from there")
     search.keep(landed)
-    found = search.bracket(landed)
+    report(search, family, tr, search.bracket(landed), t_start)
+
+
+def report(search, family, tr, found, t_start):
+    """The maximum from a bracket (Brent), or the reason there is none; the cost."""
     if isinstance(found, str):
         search.log(f"no maximum: {found}")
     else:

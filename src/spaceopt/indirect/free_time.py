@@ -96,6 +96,7 @@ class MaximumOptions:
     lift_steps: int = 4             # log-uniform steps in ε between ε_f and lift_eps, each way
     lift_probe_days: float = 0.1    # δ of the search at lift_eps (E8 full 500: its maximum 1.1 d from the origin)
     lift_max_points: int = 32       # fixed-time solves of the search at lift_eps at most
+    jump_tol: float = 1e-9          # a step whose m_f moves against φ's sign by more (relative) left another branch
     verbose: bool = True
     label: str = ""
 
@@ -261,6 +262,7 @@ class MaximumSearch:
         self.at_lift = False                        # the family is at lift_eps
         self.budget = self.opt.max_points           # solved points (ε_f and lifted) allowed so far
         self.lift_bracket: list[float] | None = None    # days, of the lifted problem's maximum
+        self.lift_failed: str | None = None         # why the lifted search found no bracket
         self.arc_points = self.folds = self.downhill = 0
 
     @property
@@ -327,14 +329,31 @@ class MaximumSearch:
 
     def advance(self, trail: list[FixedTimePoint], direction: float, h: float):
         """The fixed-time point a step ``direction`` h beyond the last of ``trail``, started by
-        :func:`extrapolate`; where Newton fails, at h/2, h/4, … down to δ/8 (E8 500 from the
-        degenerate point: the family bends): (the point or None, the step it took)."""
+        :func:`extrapolate`; where Newton fails, or lands on another branch
+        (:meth:`branch_jump`), at h/2, h/4, … down to δ/8 (E8 500 from the degenerate point: the
+        family bends): (the point or None, the step it took)."""
         while True:
             tf = trail[-1].tf + direction * h
             p = self.solve(tf, extrapolate(trail, tf, self.family.e_t), trail[-1])
+            if p is not None and self.branch_jump(trail[-1], p, direction):
+                (self.lifted if self.at_lift else self.points).remove(p)
+                p = None
             if p is not None or h <= self.delta / 8:
                 return p, h
             h *= 0.5
+
+    def branch_jump(self, last: FixedTimePoint, p: FixedTimePoint, direction: float) -> bool:
+        """``p``, a step in t_f from ``last`` with φ of one sign at both, has m_f moved against the
+        envelope relation dm_f/dt_f = −m₀ φ by more than ``jump_tol`` (relative): no smooth
+        branch joins them, Newton landed on another one (E8 full 500 at ε 1e-3: from 321.034 to
+        321.059 d φ stayed at −5e-8 … −8e-8 and m_f fell 55 mg). Logged; the step is retried shorter."""
+        if np.sign(p.phi) != np.sign(last.phi):
+            return False
+        against = (p.m_f - last.m_f) * -np.sign(last.phi) * direction < -self.opt.jump_tol * abs(last.m_f)
+        if against:
+            self.log(f"  {self.where(p.tf)}: m_f {(p.m_f - last.m_f) * self.m0:+.3e} kg against phi's sign, "
+                     "another branch: the step is retried shorter")
+        return bool(against)
 
     def march(self, trail: list[FixedTimePoint], direction: float):
         """From the last point of ``trail`` in ``direction`` by steps of the trail's last spacing
@@ -483,11 +502,18 @@ class MaximumSearch:
         self.budget = len(self.points) + len(self.lifted) + opt.lift_max_points
         found = self.bracket(lifted)
         if isinstance(found, str):
-            return f"{reason}; at eps {opt.lift_eps:g}: {found}"
-        near = min(found, key=lambda q: abs(q.phi))
-        self.lift_bracket = [self.days(q.tf) for q in found]
-        self.log(f"  at eps {opt.lift_eps:g} a maximum between {self.lift_bracket[0]:.5f} and "
-                 f"{self.lift_bracket[1]:.5f} d; back to eps {fam.eps_f:g} at {self.days(near.tf):.5f} d")
+            # no bracket at the lifted ε either: descend where φ came closest to zero there (E8
+            # full 500, scratch: lifted φ −7.4e-8 at 321.040 d, +2.8e-8 back at ε_f, the
+            # maximum 0.012 d away); a maximum found from there is certified at ε_f as any other
+            near = min(self.lifted, key=lambda q: abs(q.phi))
+            self.lift_failed = found
+            self.log(f"  at eps {opt.lift_eps:g}: {found}; back to eps {fam.eps_f:g} where |phi| is least, "
+                     f"{self.days(near.tf):.5f} d")
+        else:
+            near = min(found, key=lambda q: abs(q.phi))
+            self.lift_bracket = [self.days(q.tf) for q in found]
+            self.log(f"  at eps {opt.lift_eps:g} a maximum between {self.lift_bracket[0]:.5f} and "
+                     f"{self.lift_bracket[1]:.5f} d; back to eps {fam.eps_f:g} at {self.days(near.tf):.5f} d")
         landed = self.move_eps(near, fam.eps_f)
         self.at_lift = False
         if landed is None:
@@ -541,7 +567,7 @@ def maximise_final_mass(sol, options: MaximumOptions | None = None):
         found = search.bracket(origin)
         if isinstance(found, str) and opt.lift_eps > 0.0:
             found = search.across_branches(origin, found)
-            record["lift"] = {"eps": opt.lift_eps, "bracket_days": search.lift_bracket,
+            record["lift"] = {"eps": opt.lift_eps, "bracket_days": search.lift_bracket, "failed": search.lift_failed,
                               "points": [[search.days(p.tf), p.m_f * tr.m0, p.phi]
                                          for p in sorted(search.lifted, key=lambda p: p.tf)]}
         if isinstance(found, str):
