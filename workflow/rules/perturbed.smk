@@ -14,7 +14,8 @@
 import os
 from spaceopt.studies.failed_solves import diagnosis, failures_sentence, left_out, without_failed
 from spaceopt.studies.perturbed import (e8_count_start, e8_model_steps, e8_runs, e8_skipped, e8_smoothing,
-                                        existence_runs, scan_dates, scan_run_dates, scan_source)
+                                        existence_from_ot, existence_runs, scan_dates, scan_run_dates,
+                                        scan_source)
 from spaceopt.studies.scan_families import link_pairs, link_settings, start_pairs
 from spaceopt.studies.scan_walks import walk_dates, walk_settings
 
@@ -402,19 +403,18 @@ def pt_existence_files():
 EX_TABLE = [f"{PTDIR}/existence.csv"] if pt_existence_files() else []
 
 
-EX_FROM_OT = {k: v for k, v in ((PT.get("existence") or {}).get("from_ot") or {}).items() if k != "cases"}
-EX_FROM_OT_CASES = ((PT.get("existence") or {}).get("from_ot") or {}).get("cases", [])
+EX_FROM_OT = existence_from_ot(PT)
 
 
 def pt_existence_cfg(w):
     """A from_ot case's check also depends on its options (``existence.from_ot``)."""
     cfg = pt_config_for(w.case, w.model)
-    return {**cfg, "existence_from_ot": EX_FROM_OT} if w.case in EX_FROM_OT_CASES else cfg
+    return {**cfg, "existence_from_ot": EX_FROM_OT[w.case]} if w.case in EX_FROM_OT else cfg
 
 
 rule perturbed_existence:
     input: src=PT_SRC + lib_sources("studies/existence"), eph=lambda w: pt_ephemeris(w.case, w.model),
-           ot=lambda w: [f"{PTDIR}/{w.case}/{w.model}.json"] if w.case in EX_FROM_OT_CASES else []
+           ot=lambda w: [f"{PTDIR}/{w.case}/{w.model}.json"] if w.case in EX_FROM_OT else []
     output: pt_files("{case}/tmin_{model}")
     wildcard_constraints: case="e5|e7|e9", model="|".join(sorted(PT["models"]))
     params: cfg=pt_existence_cfg, case="{case}", model="{model}", results=RESULTS

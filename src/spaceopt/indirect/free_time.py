@@ -278,8 +278,13 @@ class MaximumSearch:
     def days(self, tf) -> float:
         return tf * self.tu / DAY
 
+    @property
+    def kept(self) -> list[FixedTimePoint]:
+        """Where solved points go: ``lifted`` while the family is lifted, else ``points``."""
+        return self.lifted if self.at_lift else self.points
+
     def keep(self, p: FixedTimePoint, how: str = "") -> FixedTimePoint:
-        (self.lifted if self.at_lift else self.points).append(p)
+        self.kept.append(p)
         self.log(f"  {self.where(p.tf)}: m_f {p.m_f * self.m0:.6f} kg, phi {p.phi:+.3e}{how}")
         return p
 
@@ -336,7 +341,7 @@ class MaximumSearch:
             tf = trail[-1].tf + direction * h
             p = self.solve(tf, extrapolate(trail, tf, self.family.e_t), trail[-1])
             if p is not None and self.branch_jump(trail[-1], p, direction):
-                (self.lifted if self.at_lift else self.points).remove(p)
+                self.kept.remove(p)
                 p = None
             if p is not None or h <= self.delta / 8:
                 return p, h

@@ -667,13 +667,21 @@ def e8_skipped(pc: dict) -> list[tuple[str, float]]:
     return [r for r in e8_runs({**pc, "e8": {**pc["e8"], "skip_n_rev": None}}) if r not in runs]
 
 
+def existence_from_ot(pc: dict) -> dict[str, dict]:
+    """{case: the options of ``spaceopt.indirect.tmin_from_ot.FromOtOptions``} for the cases of
+    ``perturbed.existence.from_ot``, whose check starts from their OT solution."""
+    from_ot = dict((pc.get("existence") or {}).get("from_ot") or {})
+    cases = from_ot.pop("cases", [])
+    return {c: from_ot for c in cases}
+
+
 def existence_runs(pc: dict) -> list[tuple[str, str]]:
     """(case, model) of the minimum-thrust existence check (``perturbed.existence``): each listed
     case that is run, unperturbed first and then the case's models, less those ``skip`` names.
     Checked: the skipped models are models of the check, the from_ot cases are listed cases."""
     ex = pc.get("existence") or {}
     cases = [c for c in ex.get("cases", []) if c in pc["run"]]
-    for c in (ex.get("from_ot") or {}).get("cases", []):
+    for c in existence_from_ot(pc):
         if c not in ex.get("cases", []):
             raise ConfigError("perturbed.existence.from_ot.cases", c, "not a case of perturbed.existence.cases")
     runs = {c: list(dict.fromkeys(["unperturbed", *pc["cases"][c]["models"]])) for c in cases}
