@@ -178,3 +178,5 @@ def test_a_path_cut_short_gives_an_upper_bound_whose_throttle_is_recorded(e1, tm
     check = verify.verify_ot(path)
     # 0.05 km at 200 samples per revolution (6.7 km with the samples' primer shifted as at τ = 0)
     assert check["final_position_vs_solver_km"] < 0.5 and abs(check["final_mass_error_kg"]) < 1e-4, check
+    # always on: the replay also says how far a thrust changed by 1e-7 moves the end point
+    assert check["thrust_probe_relative"] == verify.THRUST_PROBE and check["final_position_moved_by_thrust_probe_km"] > 0.0

@@ -68,7 +68,18 @@ def recorded_control(data: dict, smp: dict):
     return (t[0], t[-1]), y0, thrust
 
 
+THRUST_PROBE = 1e-7     # relative thrust change of the conditioning probe on minimum-thrust trajectories
+
+
 def verify_ot(json_path, rtol=1e-11, atol_m=1e-3) -> dict:
+    """The re-propagation's final errors (module docstring). On a minimum-thrust trajectory or an
+    upper bound on T_min (always on, model kind 'tmin') also how far a thrust changed by
+    ±``THRUST_PROBE`` (relative) moves the end point, the smaller of the two
+    (``final_position_moved_by_thrust_probe_km``): such a trajectory is the one that barely makes
+    the transfer, and its end point can be far more sensitive than an OT one's: E7 unperturbed's
+    bound (100 revolutions, apogee raised to 218 700 km on the way) moves by 304 km, its OT 1 N
+    trajectory's by 0.2–1.3 km, E9's and E5's minimum-thrust ones by 0.03 and 3.9 km. It is the
+    scale against which the replay's distance to the solver reads."""
     data = artifacts.read_json(json_path)
     smp = artifacts.read_npz(json_path)
     tr = data["transfer"]
@@ -76,10 +87,11 @@ def verify_ot(json_path, rtol=1e-11, atol_m=1e-3) -> dict:
     span, y0, thrust = recorded_control(data, smp)
     perturbing = _perturbing_acceleration(data)
 
-    def propagate(a_p):
+    def propagate(a_p, thrust_scale=1.0):
         def rhs(tt, y):
             r, v, m = y[:3], y[3:6], y[6]
             a_t, mdot = thrust(tt, m)
+            a_t, mdot = thrust_scale * a_t, thrust_scale * mdot
             acc = -mu * r / np.linalg.norm(r) ** 3 + a_t + a_p(r, tt)
             return np.concatenate([v, acc, [mdot]])
 
@@ -100,6 +112,11 @@ def verify_ot(json_path, rtol=1e-11, atol_m=1e-3) -> dict:
         "final_mass_error_kg": mf - data["scalars"]["m_f_kg"],
         "final_position_vs_solver_km": float(np.linalg.norm(rf - smp["r_m"][-1]) / 1e3),
     }
+    if data["model"]["kind"] == "tmin":
+        out["thrust_probe_relative"] = THRUST_PROBE
+        out["final_position_moved_by_thrust_probe_km"] = min(
+            float(np.linalg.norm(propagate(perturbing, 1.0 + side * THRUST_PROBE).y[:3, -1] - rf) / 1e3)
+            for side in (1.0, -1.0))
     if (data.get("extra") or {}).get("perturbations"):
         # the same control without the perturbations: how far they move the end point, the
         # scale against which the check above resolves the force model
@@ -133,7 +150,8 @@ def _perturbing_acceleration(data: dict):
 
 VERIFICATION_COLUMNS = ["artifact", "final_a_error_km", "final_e_error", "final_i_error_deg", "final_L_error_deg",
                         "final_mass_error_kg", "final_position_vs_solver_km",
-                        "final_position_without_perturbations_km", "integrator", "nfev", "rtol", "success",
+                        "final_position_without_perturbations_km", "thrust_probe_relative",
+                        "final_position_moved_by_thrust_probe_km", "integrator", "nfev", "rtol", "success",
                         "samples_per_rev"]
 
 
@@ -172,4 +190,13 @@ def verification_sentence(rows: list[dict], what: str) -> str:
         text += (" Each such difference is at most "
                  f"{100 * max(ratios):.2g}~\\% of the distance by which the perturbations move the end point "
                  "(the same control re-propagated without them).")
+    probed = [v for v in rows if v.get("final_position_moved_by_thrust_probe_km") not in (None, "")]
+    if probed:
+        moved = [float(v["final_position_moved_by_thrust_probe_km"]) for v in probed]
+        worst_ratio = max(float(v["final_position_vs_solver_km"]) / m for v, m in zip(probed, moved))
+        text += (f" The minimum-thrust ones among them ({len(probed)}; always on, with the least thrust that makes "
+                 "the transfer, or an upper bound on it) have far more sensitive end points: a thrust "
+                 f"changed by {float(probed[0]['thrust_probe_relative']):.0e} (relative) moves them by "
+                 f"{min(moved):.3g} to {max(moved):.3g}~km, and their distance to the solver's is at most "
+                 f"{worst_ratio:.2g} times that distance.")
     return text
