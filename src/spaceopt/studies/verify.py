@@ -173,7 +173,8 @@ def write_verification_csv(path, rows: list[dict]) -> None:
 def verification_sentence(rows: list[dict], what: str) -> str:
     """The paper's sentence on the worst final errors of the re-propagated ``what``
     (e.g. 'OT trajectories'); for perturbed rows also the largest ratio of the end-point
-    distance to the distance by which the perturbations move the end point. '' without rows."""
+    distance to the distance by which the perturbations move the end point; for minimum-thrust
+    rows how far the thrust probe moves their end points, and the farthest one's. '' without rows."""
     if not rows:
         return ""
     worst = {k: max(abs(float(v[k])) for v in rows)
@@ -192,11 +193,12 @@ def verification_sentence(rows: list[dict], what: str) -> str:
                  "(the same control re-propagated without them).")
     probed = [v for v in rows if v.get("final_position_moved_by_thrust_probe_km") not in (None, "")]
     if probed:
-        moved = [float(v["final_position_moved_by_thrust_probe_km"]) for v in probed]
-        worst_ratio = max(float(v["final_position_vs_solver_km"]) / m for v, m in zip(probed, moved))
-        text += (f" The minimum-thrust ones among them ({len(probed)}; always on, with the least thrust that makes "
-                 "the transfer, or an upper bound on it) have far more sensitive end points: a thrust "
-                 f"changed by {float(probed[0]['thrust_probe_relative']):.0e} (relative) moves them by "
-                 f"{min(moved):.3g} to {max(moved):.3g}~km, and their distance to the solver's is at most "
-                 f"{worst_ratio:.2g} times that distance.")
+        moved = lambda v: float(v["final_position_moved_by_thrust_probe_km"])      # noqa: E731
+        far = max(probed, key=lambda v: float(v["final_position_vs_solver_km"]))
+        text += (f" For the minimum-thrust ones among them ({len(probed)}; always on, with the least thrust that "
+                 f"makes the transfer, or an upper bound on it) a thrust changed by "
+                 f"$10^{{{round(math.log10(float(probed[0]['thrust_probe_relative'])))}}}$ (relative) moves the end point by "
+                 f"{min(map(moved, probed)):.3g} to {max(map(moved, probed)):.3g}~km; the one farthest from the "
+                 f"solver's end point ({float(far['final_position_vs_solver_km']):.3g}~km) is one whose end point "
+                 f"that change moves by {moved(far):.3g}~km.")
     return text
