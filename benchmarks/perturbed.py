@@ -67,8 +67,10 @@ def measured(results: Path) -> dict:
             continue
         if "provenance" not in d or "solver" not in d:
             continue
+        end_game = (d.get("extra") or {}).get("tof_maximum") or {}     # its fixed-time solves, beside the solver's
         rec = {"wall_time_s": d["provenance"].get("wall_time_s"),
                "jacobian_evaluations": d["solver"].get("jacobian_evaluations"),
+               "end_game_jacobian_evaluations": end_game.get("jacobian_evaluations", 0),
                "n_rev": d["transfer"]["n_rev"]}
         group = p.parent.name
         if group == "e6":
@@ -97,7 +99,8 @@ def e8_route_times(e8: dict) -> dict:
     """Wall time of the DAG's route to each perturbed E8 solve, from the artifacts: the
     unperturbed count n (``perturbed.e8.count_start: chain``, from the zero guess) or the
     unperturbed counts up to n (``previous``: each continues from the one before), then every
-    later model at n (each from the previous model at n). Only routes whose solves all exist."""
+    later model at n (each from the previous model at n); the Jacobians of the solvers and of the
+    free-time end games. Only routes whose solves all exist."""
     from spaceopt.studies.perturbed import e8_count_start
     pc = _perturbed_config()
     models = pc["cases"]["e8"]["models"]
@@ -110,7 +113,9 @@ def e8_route_times(e8: dict) -> dict:
             keys.append(f"{model}_n{n:g}")
             if all(k in e8 and e8[k]["wall_time_s"] for k in keys):
                 out[f"{model}_n{n:g}"] = {"wall_time_s": sum(e8[k]["wall_time_s"] for k in keys),
-                                          "jacobian_evaluations": sum(e8[k]["jacobian_evaluations"] or 0 for k in keys),
+                                          "jacobian_evaluations": sum((e8[k]["jacobian_evaluations"] or 0)
+                                                                      + e8[k].get("end_game_jacobian_evaluations", 0)
+                                                                      for k in keys),
                                           "solves": list(keys)}
     return out
 
