@@ -420,31 +420,3 @@ def test_a_step_that_lands_on_a_lighter_branch_is_retried_shorter():
     s, (left, right), best = search(fam, 1.0)
     assert fam.jumped and not any(p.tf in fam.jumped and p.m_f < -0.4 for p in s.points)
     assert s.arc_points == 0 and best.tf == pytest.approx(2.0, abs=1e-6)
-
-
-class ArcJumpFamily(FoldFamily):
-    """The fold family of FOLD_PHI whose arclength corrector, the first time it lands in
-    0.2 < u < 0.4, returns a point of another branch: 0.5 lighter with φ of the same sign."""
-
-    def __init__(self):
-        super().__init__(FOLD_PHI, FOLD_MASS)
-        self.jumped = []
-
-    def correct(self, x_pred, border=None, J=None):
-        p = super().correct(x_pred, border, J)
-        if p is not None and not self.jumped and 0.2 < p.z[0] < 0.4:
-            self.jumped.append(p.tf)
-            return ft.FixedTimePoint(p.tf, p.z, p.J, p.m_f - 0.5, p.phi)
-        return p
-
-
-def test_an_arclength_step_that_lands_on_a_lighter_branch_is_retried_shorter():
-    """E8 full 500 at ε 1e-3 (scratch, thirty-third session): the arclength corrector went from
-    321.034 to 321.051 d and m_f fell 35 mg while φ < 0. The walk drops such a point as the march
-    does (branch_jump), halves the step, and goes on up the branch beyond the fold to the maximum
-    at u = 0.6 with no point of the other branch kept."""
-    fam = ArcJumpFamily()
-    s, (left, right), best = search_fold(fam, -0.01)
-    assert fam.jumped and s.folds == 1
-    assert not any(p.tf == fam.jumped[0] and p.m_f < FOLD_MASS(p.z[0]) - 0.4 for p in s.points)
-    assert best.z[0] == pytest.approx(0.6, abs=1e-6)

@@ -348,8 +348,8 @@ class MaximumSearch:
             h *= 0.5
 
     def branch_jump(self, last: FixedTimePoint, p: FixedTimePoint, direction: float) -> bool:
-        """``p``, a step from ``last`` (in t_f, or along the family with no fold between them) that
-        moved t_f in ``direction`` with φ of one sign at both, has m_f moved against the envelope relation dm_f/dt_f = −m₀ φ by more than ``jump_tol`` (relative): no smooth
+        """``p``, a step in t_f from ``last`` with φ of one sign at both, has m_f moved against the
+        envelope relation dm_f/dt_f = −m₀ φ by more than ``jump_tol`` (relative): no smooth
         branch joins them, Newton landed on another one (E8 full 500 at ε 1e-3: from 321.034 to
         321.059 d φ stayed at −5e-8 … −8e-8 and m_f fell 55 mg). Logged; the step is retried shorter."""
         if np.sign(p.phi) != np.sign(last.phi):
@@ -392,9 +392,7 @@ class MaximumSearch:
         (:meth:`FixedTimeFamily.correct`, from a fresh Jacobian: the tangent at the new point
         needs its own, as ∂F/∂z changes fast near a fold); h starts at a quarter of the secant's length, doubles
         after each solved step up to ``max_arc_step`` times that length, halves where the corrector
-        fails or lands on another branch (:meth:`branch_jump`, checked between points with no fold
-        between them; E8 full 500 at ε 1e-3: from 321.034 to 321.051 d m_f fell 35 mg while φ < 0)
-        (down to 1/64 of the secant).
+        fails (down to 1/64 of the secant).
         Along the family dm_f/ds = −m₀ φ dt_f/ds (the envelope relation): the march is uphill
         while −φ v_t > 0. A fold (v_t changes sign) where φ changes sign too keeps it uphill; one
         where φ keeps its sign is a maximum of m_f along the family that is no free-time
@@ -419,11 +417,6 @@ class MaximumSearch:
         while self.within_budget():
             x_pred = last.x + h * v
             p = fam.correct(x_pred, np.append(theta2 * v[:-1], v[-1]))
-            if p is not None:
-                w = unit(fam.tangent(p), p.x - last.x)
-                fold = np.sign(w[-1]) != np.sign(v[-1])
-                if not fold and self.branch_jump(last, p, np.sign(p.tf - last.tf)):
-                    p = None
             if p is None:
                 self.log(f"  arclength step {h / h_secant:.3g} of the secant failed")
                 if h <= h_secant / 64:
@@ -431,6 +424,8 @@ class MaximumSearch:
                 h *= 0.5
                 continue
             self.arc_points += 1
+            w = unit(fam.tangent(p), p.x - last.x)
+            fold = np.sign(w[-1]) != np.sign(v[-1])
             self.folds += int(fold)
             self.keep(p, ", a fold in t_f passed" if fold else "")
             left, right = sorted((last, p), key=lambda q: q.tf)
