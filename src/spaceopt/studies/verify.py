@@ -76,10 +76,11 @@ def verify_ot(json_path, rtol=1e-11, atol_m=1e-3) -> dict:
     upper bound on T_min (always on, model kind 'tmin') also how far a thrust changed by
     ±``THRUST_PROBE`` (relative) moves the end point, the smaller of the two
     (``final_position_moved_by_thrust_probe_km``): such a trajectory is the one that barely makes
-    the transfer, and its end point can be far more sensitive than an OT one's: E7 unperturbed's
-    bound (100 revolutions, apogee raised to 218 700 km on the way) moves by 304 km, its OT 1 N
-    trajectory's by 0.2–1.3 km, E9's and E5's minimum-thrust ones by 0.03 and 3.9 km. It is the
-    scale against which the replay's distance to the solver reads."""
+    the transfer, and its end point can be far more sensitive than an OT one's (at 2000 samples
+    per revolution): E7 unperturbed's bound (100 revolutions, apogee raised to 218 700 km on the
+    way) moves by 312 km, where its OT 1 N trajectory's moves by about 1 km; E5's T_min by 3.9 km,
+    E9's by 0.066 km unperturbed and 0.0003 km with J2. It is the scale against which the replay's
+    distance to the solver reads."""
     data = artifacts.read_json(json_path)
     smp = artifacts.read_npz(json_path)
     tr = data["transfer"]
