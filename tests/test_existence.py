@@ -52,3 +52,16 @@ def test_an_upper_bound_is_written_as_one_and_decides_only_at_or_above_it():
     assert "below" not in text.split("(upper bounds")[0]
     low = E.sentence([bound("unperturbed", 0.311622, 0.2)], MODEL_TEX)
     assert "below the upper bound for unperturbed: undecided" in low and "no transfer" not in low
+
+
+def test_a_bound_carried_over_from_another_model_names_its_source():
+    """existence.bound_from (E7 full model): the row records the source model, the sentence says
+    whose bound it is and why."""
+    p = _payload(0.3111, 1.0, 100.0)
+    p["extra"]["verdict"].update(T_min_is="upper bound")
+    p["extra"].update(route="ot-tmin-model", bound_from="j2")
+    row = E.row("e7", "g44_moon_sun", p)
+    assert row["bound_from"] == "j2" and row["route"] == "ot-tmin-model"
+    assert E.row("e7", "j2", _payload(0.3110, 1.0, 100.0))["bound_from"] == ""
+    text = E.sentence([row], MODEL_TEX)
+    assert f"the bound for {MODEL_TEX['g44_moon_sun']} is that for {MODEL_TEX['j2']} carried over" in text

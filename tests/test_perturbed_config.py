@@ -1215,12 +1215,31 @@ def test_the_e6_latex_tables_add_the_dates_where_another_familys_extremal_is_hea
 
 def test_the_existence_runs_leave_out_the_skipped_models_and_name_a_bad_one():
     runs = P.existence_runs(PC)
-    assert ("e7", "unperturbed") in runs and ("e7", "j2") in runs and ("e7", "g44_moon_sun") not in runs
+    assert ("e7", "unperturbed") in runs and ("e7", "j2") in runs and ("e7", "g44_moon_sun") in runs
     assert ("e9", "g44_moon_sun") in runs and runs.index(("e5", "unperturbed")) == 0
     bad = copy.deepcopy(PC)
+    bad["existence"]["skip"] = {"e7": ["g44_moon_sun"]}
+    assert ("e7", "g44_moon_sun") not in P.existence_runs(bad)
     bad["existence"]["skip"] = {"e7": ["g44"]}
     with pytest.raises(ConfigError, match=r"perturbed.existence.skip.e7='g44'.*not a model of the check"):
         P.existence_runs(bad)
     bad["existence"] = {"cases": [e for e in PC["existence"]["cases"] if e != "e7"], "from_ot": {"cases": ["e7"]}}
     with pytest.raises(ConfigError, match=r"from_ot.cases='e7'"):
         P.existence_runs(bad)
+
+
+def test_a_model_carries_over_another_models_bound_only_where_both_are_checked_from_ot():
+    """existence.bound_from (E7: the full model carries the J2 bound over): each pair is checked."""
+    assert P.existence_bound_from(PC) == {("e7", "g44_moon_sun"): "j2"}
+    for bound_from, match in (({"e9": {"g44_moon_sun": "j2"}}, r"bound_from.e9=.*not a case of .*from_ot"),
+                              ({"e7": {"g44_moon_sun": "unperturbed"}}, r"bound_from.e7.g44_moon_sun='unperturbed'"),
+                              ({"e7": {"g44": "j2"}}, r"bound_from.e7.g44='g44'.*not a perturbed model"),
+                              ({"e7": {"j2": "j2"}}, r"bound_from.e7.j2='j2'.*its own bound")):
+        bad = copy.deepcopy(PC)
+        bad["existence"]["bound_from"] = bound_from
+        with pytest.raises(ConfigError, match=match):
+            P.existence_bound_from(bad)
+    bad = copy.deepcopy(PC)
+    bad["existence"]["skip"] = {"e7": ["j2"]}                      # the source left out of the check
+    with pytest.raises(ConfigError, match=r"bound_from.e7.g44_moon_sun='j2'"):
+        P.existence_bound_from(bad)

@@ -166,7 +166,7 @@ def test_the_report_pass_leaves_out_the_failed_solves_and_those_that_start_from_
     planned again, nor the solves that start from them (E6: start_from; E8: the later models at
     that count), and the tables and paper are planned without them. Without the variable they
     are planned as usual."""
-    for stem in ("e6/2021-05-17", "e8/j2_n450", "e9/tmin_g44"):
+    for stem in ("e6/2021-05-17", "e8/j2_n450", "e9/tmin_g44", "e7/tmin_j2"):
         path = tmp_path / "perturbed" / f"{stem}.failure.json"
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text('{"error": "no convergence (test)"}')
@@ -191,20 +191,25 @@ def test_the_report_pass_leaves_out_the_failed_solves_and_those_that_start_from_
     assert not any(i.endswith(("/e8/j2_n450.json", "/e8/g44_n450.json")) for i in tables)
     existence = {Path(o).stem for o in planned_inputs(out, "perturbed_existence")}     # the minimum-thrust check
     assert "tmin_g44_moon_sun" in existence and "tmin_g44" not in existence
+    planned = planned_inputs(out, "perturbed_existence")                 # E7's full model carries J2's bound over
+    assert f"{tmp_path}/perturbed/e9/tmin_g44_moon_sun.json" in planned
+    assert not {f"{tmp_path}/perturbed/e7/tmin_{m}.json" for m in ("j2", "g44_moon_sun")} & set(planned)
     assert not any(i.endswith("/e9/tmin_g44.json") for i in planned_inputs(out, "perturbed_existence_table")[
         f"{tmp_path}/perturbed/existence.csv"])
 
 
 def test_the_e7_existence_check_starts_from_the_e7_ot_solves():
     """existence.from_ot (E7: the (3.4.1) path from the LP folds): each E7 minimum-thrust job
-    reads the E7 OT artifact of its model (the full model is skipped), and its table row is
-    planned; E5 and E9 keep the route from the zero guess (no OT input)."""
+    reads the E7 OT artifact of its model, but the full model's, which carries the J2 bound over
+    (existence.bound_from), and its table row is planned; E5 and E9 keep the route from the zero
+    guess (no OT input)."""
     rc, out = smk("-n", "--forceall", "--cores", "2", "results/perturbed/existence.csv")
     assert rc == 0, out[-2000:]
     jobs = planned_inputs(out, "perturbed_existence")
     for model in ("unperturbed", "j2"):
         assert f"results/perturbed/e7/{model}.json" in jobs[f"results/perturbed/e7/tmin_{model}.json"]
-    assert "results/perturbed/e7/tmin_g44_moon_sun.json" not in jobs           # existence.skip
+    full = jobs["results/perturbed/e7/tmin_g44_moon_sun.json"]                 # existence.bound_from
+    assert "results/perturbed/e7/tmin_j2.json" in full and "results/perturbed/e7/g44_moon_sun.json" not in full
     assert not any(i.startswith("results/perturbed/e9/") and not i.endswith("_window.json")
                    for i in jobs["results/perturbed/e9/tmin_j2.json"]), jobs["results/perturbed/e9/tmin_j2.json"]
     table = planned_inputs(out, "perturbed_existence_table")["results/perturbed/existence.csv"]

@@ -14,12 +14,14 @@
 import os
 from spaceopt.studies.failed_solves import diagnosis, failures_sentence, left_out, without_failed
 from spaceopt.studies.perturbed import (e8_count_start, e8_model_steps, e8_runs, e8_skipped, e8_smoothing,
-                                        existence_from_ot, existence_runs, scan_dates, scan_run_dates,
+                                        existence_bound_from, existence_from_ot, existence_runs, scan_dates,
+                                        scan_run_dates,
                                         scan_source)
 from spaceopt.studies.scan_families import link_pairs, link_settings, start_pairs
 from spaceopt.studies.scan_walks import walk_dates, walk_settings
 
-check_section("perturbed", physical=lambda pc: (scan_run_dates(pc), e8_runs(pc), existence_runs(pc)))
+check_section("perturbed", physical=lambda pc: (scan_run_dates(pc), e8_runs(pc), existence_runs(pc),
+                                                existence_bound_from(pc)))
 PT = config["perturbed"]
 PTDIR = f"{RESULTS}/perturbed"
 PT_SRC = lib_sources("indirect", "elements", "forces", "ephemeris", "frames", "artifacts",
@@ -390,8 +392,12 @@ rule perturbed_force_shares_table:
 # under the unperturbed model and each of the case's models, from the zero guess
 # (spaceopt.studies.existence; perturbed.existence, null: off)
 EX_RUNS = existence_runs(PT)
-if REPORT_FAILED:        # the report pass: minimum-thrust solves that failed are left out (failed_solves)
-    PT_FAILED["existence"] = left_out(EX_RUNS, lambda r: None, lambda r: diagnosis(f"{PTDIR}/{r[0]}/tmin_{r[1]}.json"))
+EX_BOUND_FROM = existence_bound_from(PT)
+if REPORT_FAILED:        # the report pass: minimum-thrust solves that failed are left out (failed_solves),
+    # and those that carry a failed one's bound over (existence.bound_from)
+    PT_FAILED["existence"] = left_out(EX_RUNS, lambda r: (r[0], EX_BOUND_FROM[r]) if r in EX_BOUND_FROM else None,
+                                      lambda r: diagnosis(f"{PTDIR}/{r[0]}/tmin_{r[1]}.json"),
+                                      lambda r: f"{r[0]}/tmin_{r[1]}")
 
 
 def pt_existence_files():
@@ -407,14 +413,27 @@ EX_FROM_OT = existence_from_ot(PT)
 
 
 def pt_existence_cfg(w):
-    """A from_ot case's check also depends on its options (``existence.from_ot``)."""
+    """A from_ot case's check also depends on its options (``existence.from_ot``), and a model
+    that carries another's bound over on that model (``existence.bound_from``)."""
     cfg = pt_config_for(w.case, w.model)
-    return {**cfg, "existence_from_ot": EX_FROM_OT[w.case]} if w.case in EX_FROM_OT else cfg
+    if w.case not in EX_FROM_OT:
+        return cfg
+    cfg = {**cfg, "existence_from_ot": EX_FROM_OT[w.case]}
+    source = EX_BOUND_FROM.get((w.case, w.model))
+    return {**cfg, "existence_bound_from": source} if source else cfg
+
+
+def pt_existence_start(w):
+    """The OT artifact a from_ot check starts from, or the other model's bound it carries over."""
+    if w.case not in EX_FROM_OT:
+        return []
+    source = EX_BOUND_FROM.get((w.case, w.model))
+    return [f"{PTDIR}/{w.case}/tmin_{source}.json" if source else f"{PTDIR}/{w.case}/{w.model}.json"]
 
 
 rule perturbed_existence:
     input: src=PT_SRC + lib_sources("studies/existence"), eph=lambda w: pt_ephemeris(w.case, w.model),
-           ot=lambda w: [f"{PTDIR}/{w.case}/{w.model}.json"] if w.case in EX_FROM_OT else []
+           ot=pt_existence_start
     output: pt_files("{case}/tmin_{model}")
     wildcard_constraints: case="e5|e7|e9", model="|".join(sorted(PT["models"]))
     params: cfg=pt_existence_cfg, case="{case}", model="{model}", results=RESULTS

@@ -1,6 +1,7 @@
 """The minimum-thrust existence check of one §4.2 case under one force model, from the zero guess
-or, for the cases of existence.from_ot, from the case's OT artifact (spaceopt.studies.existence);
-failure.json on non-convergence."""
+or, for the cases of existence.from_ot, from the case's OT artifact, or from another model's upper
+bound where existence.bound_from says so (spaceopt.studies.existence); failure.json on
+non-convergence."""
 import sys
 import time
 from pathlib import Path
@@ -22,7 +23,10 @@ def main(sm):
     artifacts.clear_failures(out)
     t0 = time.perf_counter()
     try:
-        if "existence_from_ot" in cfg:       # from the case's OT solution (existence.from_ot)
+        if "existence_bound_from" in cfg:   # another model's bound carried over (existence.bound_from)
+            tm, verdict = E.solve_from_bound(P.load(sm.input.ot[0]), tr, cfg["existence_bound_from"],
+                                             f"{case}/tmin_{model}", FromOtOptions(**cfg["existence_from_ot"]))
+        elif "existence_from_ot" in cfg:     # from the case's OT solution (existence.from_ot)
             tm, verdict = E.solve_from_ot(P.load(sm.input.ot[0]), f"{case}/tmin_{model}",
                                           FromOtOptions(**cfg["existence_from_ot"]))
         else:

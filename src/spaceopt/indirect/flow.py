@@ -60,6 +60,9 @@ class Model:
         blended from the force model ``prm['pert_from']`` to ``prm['pert']``,
         a_p = (1 − τ) a_p,from + τ a_p,to (H_p is linear in a_p): a change of force model along
         the physical path (E8: J2 → 4×4 + Moon + Sun).
+    homotopy 'model' (for 'tmin'): the T_min → OT problem at a fixed point τ_ot =
+        ``prm['tau_ot']`` of its homotopy, with the force model blended as for 'ot' (an upper bound
+        on T_min moved to another force model, :func:`.tmin_from_ot.bound_in_model`).
     homotopy 'param' (any kind): the pure problem with problem data moved linearly from
         ``prm['path_from']`` to ``prm['path_to']`` (thrust, L0, L_f, …) — warm starts along a
         sweep or a thrust family.
@@ -104,10 +107,17 @@ def ot_delta(model: Model, K, y, tau, prm):
     return hm.smooth_delta(S, eps), S, prm_t
 
 
-def _pert_shift(model, y, tau=0.0):
+def tmin_ot_tau(model: Model, tau, prm):
+    """τ of the T_min → OT homotopy (:func:`hamiltonians.h_tmin_ot`): the path parameter of
+    ('tmin', 'ot'); ``prm['tau_ot']``, held fixed, in ('tmin', 'model'), whose τ blends the force model."""
+    return prm["tau_ot"] if model.homotopy == "model" else tau
+
+
+def _pert_shift(model, y, tau, prm):
     if model.kind != "tmin":
         return 0.0
-    return -(1.0 - tau if model.homotopy == "ot" else 1.0) * 0.5 * y[hm.THRUST] ** 2
+    tmin_ot = model.homotopy in ("ot", "model")
+    return -(1.0 - tmin_ot_tau(model, tau, prm) if tmin_ot else 1.0) * 0.5 * y[hm.THRUST] ** 2
 
 
 def tmin_ot_delta(K, y, tau, prm):
@@ -136,7 +146,7 @@ def field(model: Model, K, y, tau, prm):
     prm = params_at(model, prm, tau)
     g = _unperturbed_field(model, K, y, tau, prm)
     if model.perturbed:
-        shift = _pert_shift(model, y, tau)
+        shift = _pert_shift(model, y, tau, prm)
         g = g + hamiltonian_field(
             lambda K_, x_, l_: _h_perturbation(model, K_, x_, l_, tau, prm, shift), K, y, model.n)
     return g
@@ -152,9 +162,10 @@ def _unperturbed_field(model: Model, K, y, tau, prm):
         if model.homotopy != "lp":
             return g_tgt
         W = hm.primer_magnitude(K, y[:n], y[n:])
-    elif model.kind == "tmin" and model.homotopy == "ot":
-        delta, _ = tmin_ot_delta(K, y, tau, prm)
-        return hamiltonian_field(lambda K_, x_, l_: hm.h_tmin_ot(K_, x_, l_, prm, tau, delta), K, y, n)
+    elif model.kind == "tmin" and model.homotopy in ("ot", "model"):
+        tau_ot = tmin_ot_tau(model, tau, prm)
+        delta, _ = tmin_ot_delta(K, y, tau_ot, prm)
+        return hamiltonian_field(lambda K_, x_, l_: hm.h_tmin_ot(K_, x_, l_, prm, tau_ot, delta), K, y, n)
     elif model.kind == "tmin":
         g_tgt = hamiltonian_field(partial(hm.h_tmin, prm=prm), K, y, n)
         if model.homotopy != "lp":
@@ -179,7 +190,7 @@ def hamiltonian(model: Model, K, y, tau, prm):
     h = _unperturbed_hamiltonian(model, K, y, tau, prm)
     if model.perturbed:
         n = model.n
-        h = h + _h_perturbation(model, K, y[:n], y[n:], tau, prm, _pert_shift(model, y, tau))
+        h = h + _h_perturbation(model, K, y[:n], y[n:], tau, prm, _pert_shift(model, y, tau, prm))
     return h
 
 
@@ -191,8 +202,9 @@ def _unperturbed_hamiltonian(model: Model, K, y, tau, prm):
     if model.kind == "ot":
         delta, _, prm_t = ot_delta(model, K, y, tau, prm)
         h_t = hm.h_ot(K, x, lam, prm_t, delta)
-    elif model.homotopy == "ot":
-        return hm.h_tmin_ot(K, x, lam, prm, tau, tmin_ot_delta(K, y, tau, prm)[0])
+    elif model.homotopy in ("ot", "model"):
+        tau_ot = tmin_ot_tau(model, tau, prm)
+        return hm.h_tmin_ot(K, x, lam, prm, tau_ot, tmin_ot_delta(K, y, tau_ot, prm)[0])
     else:
         h_t = hm.h_tmin(K, x, lam, prm)
     if model.homotopy != "lp":

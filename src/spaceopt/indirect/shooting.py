@@ -30,7 +30,7 @@ import jax
 import jax.numpy as jnp
 
 from . import hamiltonians as hm
-from .flow import Model, field, hamiltonian, params_at, propagate, propagate_with_sensitivities
+from .flow import Model, field, hamiltonian, params_at, propagate, propagate_with_sensitivities, tmin_ot_tau
 from .transfer import MAX_STEPS, PATH_RTOL
 
 COSTATE_NAMES = ("p_p", "p_ex", "p_ey", "p_ix", "p_iy", "p_LK", "p_t", "p_m")
@@ -93,8 +93,9 @@ def terminal_residual(sh: Shooting, yf, Kf, prm, tau=1.0):
         r.append(jnp.atleast_1d(yf[n + hm.MASS]))
     if hm.TIME in sh.free_costates:
         r.append(jnp.atleast_1d(yf[hm.TIME] - prm["tf"] if sh.fixed_time else yf[n + hm.TIME]))
-    if sh.has_thrust and sh.model.homotopy == "ot":      # T_min → OT: p_T(K_f) = 0 → T = T_OT
-        r.append(jnp.atleast_1d((1.0 - tau) * yf[n + hm.THRUST] + tau * (yf[hm.THRUST] - prm["thrust"])))
+    if sh.has_thrust and sh.model.homotopy in ("ot", "model"):     # T_min → OT: p_T(K_f) = 0 → T = T_OT
+        t_ot = tmin_ot_tau(sh.model, tau, prm)
+        r.append(jnp.atleast_1d((1.0 - t_ot) * yf[n + hm.THRUST] + t_ot * (yf[hm.THRUST] - prm["thrust"])))
     elif sh.has_thrust:
         r.append(jnp.atleast_1d(yf[n + hm.THRUST]))
     return jnp.concatenate(r)

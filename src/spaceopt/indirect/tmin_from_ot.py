@@ -23,7 +23,10 @@ Here it is followed from τ = 1 to τ = 0, in arclength, from the OT solution mo
    point of least T that Newton polishes at its own fixed τ (:func:`polished_least_thrust`) is a
    transfer the dynamics allow with thrust T·δ_τ ≤ T, so every thrust of at least T has one,
    T_min ≤ T. The solution keeps its τ; its samples carry the throttle δ_τ
-   (:mod:`spaceopt.studies.trajectory`) and the independent re-propagation replays it.
+   (:mod:`spaceopt.studies.trajectory`) and the independent re-propagation replays it;
+4. where a force model's own path folds at once (E7 with 4×4 + Moon + Sun), the bound of a
+   simpler model is carried over to it at its fixed τ by blending the force model
+   (:func:`bound_in_model`): another upper bound, under the target model.
 
 Written here rather than with a library: the path follower is the project's own
 (:class:`.continuation.ArclengthContinuation`), this module only maps the homotopy onto it.
@@ -63,17 +66,26 @@ def tau_of(s, decades):
     return (q - floor) / (1.0 - floor), -decades * np.log(10.0) * q / (1.0 - floor)
 
 
+def weighted_thrust_row(shot, z, tau, weight, T_ot, tau_moves=True):
+    """:func:`.shooting.shoot`'s tuple ``shot`` with the thrust row (1 − τ) p_T(K_f) + τ (T − T_OT)
+    replaced by (1 − τ) w p_T(K_f) + τ (T − T_OT) = w·row + (1 − w) τ (T − T_OT). ``tau_moves``:
+    τ is the path's parameter (its column gets the added term's derivative); False where τ is held
+    and the path moves something else (:func:`bound_in_model`)."""
+    f, J, ftau, nsteps, ok = shot
+    dT = z[-1] - T_ot
+    f = f.at[-1].set(weight * f[-1] + (1.0 - weight) * tau * dT)
+    J = J.at[-1].set(weight * J[-1]).at[-1, -1].add((1.0 - weight) * tau)
+    ftau = ftau.at[-1].set(weight * ftau[-1] + ((1.0 - weight) * dT if tau_moves else 0.0))
+    return f, J, ftau, nsteps, ok
+
+
 def reversed_map(shoot_at, weight, T_ot, decades, trace=None):
-    """f(z, s) = f(z, τ(s)) with the thrust row (1 − τ) p_T(K_f) + τ (T − T_OT) replaced by
-    (1 − τ) w p_T(K_f) + τ (T − T_OT) = w·row + (1 − w) τ (T − T_OT); ``shoot_at(z, τ)`` returns
-    :func:`.shooting.shoot`'s tuple. ``trace`` (a list) collects (τ, z, |f|) of every evaluation."""
+    """f(z, s) = f(z, τ(s)) with the thrust row weighted (:func:`weighted_thrust_row`);
+    ``shoot_at(z, τ)`` returns :func:`.shooting.shoot`'s tuple. ``trace`` (a list) collects
+    (τ, z, |f|) of every evaluation."""
     def at(z, s):
         tau, dtau = tau_of(s, decades)
-        f, J, ftau, nsteps, ok = shoot_at(z, tau)
-        dT = z[-1] - T_ot
-        f = f.at[-1].set(weight * f[-1] + (1.0 - weight) * tau * dT)
-        J = J.at[-1].set(weight * J[-1]).at[-1, -1].add((1.0 - weight) * tau)
-        ftau = ftau.at[-1].set(weight * ftau[-1] + (1.0 - weight) * dT)
+        f, J, ftau, nsteps, ok = weighted_thrust_row(shoot_at(z, tau), z, tau, weight, T_ot)
         if trace is not None:
             trace.append((float(tau), np.array(z, dtype=float), float(jnp.linalg.norm(f))))
         return f, J, ftau * dtau, nsteps, ok
@@ -137,8 +149,7 @@ def solve_tmin_from_ot(ot: Solution, options: FromOtOptions = FromOtOptions(), l
         z, _ = cont.run(z0)
         tau, norm, stopped = 0.0, cont.stats.residual, None
     except ConvergenceError as exc:
-        fixed_tau = reversed_map(at_end, weight, z0[-1], 0.0)        # s = 1 − τ: at a fixed τ
-        found = polished_least_thrust(trace, lambda zz, t: fixed_tau(zz, 1.0 - t), options.tol_step,
+        found = polished_least_thrust(trace, _fixed_tau(sh, prm, weight, z0[-1]), options.tol_step,
                                       options.candidates)
         if found is None:
             exc.diagnosis["bound"] = "no least-thrust path point polished at its fixed tau"
@@ -150,4 +161,61 @@ def solve_tmin_from_ot(ot: Solution, options: FromOtOptions = FromOtOptions(), l
     extra.update({"tau": tau, "bound": tau > 0.0, "throttle_min": 1.0 - tau, "path_stopped": stopped})
     sol = Solution("tmin", sh, np.asarray(z, float), prm, tr, stats, extra=extra, tau=tau)
     sol.thrust_N = float(z[-1]) * tr.force_unit
+    return sol
+
+
+def _fixed_tau(sh, prm, weight, T_ot):
+    """f(z, τ) of the T_min → OT homotopy at a fixed τ, at the end-point tolerances, its thrust
+    row weighted as on the path."""
+    at_end = lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm)  # noqa: E731
+    on_s = reversed_map(at_end, weight, T_ot, 0.0)                # s = 1 − τ
+    return lambda z, tau: on_s(z, 1.0 - tau)
+
+
+def bound_in_model(bound: Solution, tr_to, options: FromOtOptions = FromOtOptions(),
+                   label="tmin bound model") -> Solution:
+    """An upper bound on T_min under the force model of ``tr_to``, from a bound under another.
+
+    Where the T_min → OT path of the target model folds at once (E7 with 4×4 + Moon + Sun: at
+    τ 0.995 from its OT), the bound found under a simpler model (J2) is carried over instead: at
+    its own fixed τ_ot and thrust-row weight, the force model is blended from the bound's to
+    ``tr_to``'s by a second parameter b, a_p = (1 − b) a_p,from + b a_p,to (flow.Model
+    ('tmin', 'model')), followed in arclength from b = 0 (the bound itself) to b = 1. There the
+    point solves the target model's T_min → OT problem at τ_ot, polished by Newton: a transfer
+    under the target model with thrust T·δ_τ ≤ T, so T_min ≤ T there too (module docstring).
+    Raises ConvergenceError where the blend stops short of b = 1 or the end point does not polish.
+    """
+    if bound.stage != "tmin" or not bound.extra.get("bound") or not (bound.transfer.perturbed and tr_to.perturbed):
+        raise ValueError("bound_in_model needs an upper bound on T_min (tmin_from_ot) of a perturbed "
+                         "transfer, and a perturbed target")
+    if tr_to.eps_blend != bound.extra["eps_blend"]:
+        raise ValueError(f"bound_in_model: the target's eps_blend {tr_to.eps_blend} is not the bound's "
+                         f"{bound.extra['eps_blend']}")
+    tau_ot, weight = bound.tau, bound.extra["weight"]
+    T_ot = bound.extra["T_ot_N"] / tr_to.force_unit
+    prm = tr_to.params(thrust=bound.extra["T_ot_N"])
+    blend_prm = {**prm, "pert_from": bound.prm["pert"], "tau_ot": tau_ot}
+    sh = shooting_for("tmin", "model", tr_to)
+    rtol, atol = _path_tolerances(sh)
+    blended = lambda tol: lambda z, b: weighted_thrust_row(  # noqa: E731
+        shoot(sh, jnp.asarray(z), b, blend_prm, *tol), z, tau_ot, weight, T_ot, tau_moves=False)
+    cont = ArclengthContinuation(blended((rtol, atol)),
+                                 ArclengthOptions(h_max=options.h_max, tol_step=options.tol_step,
+                                                  max_steps=options.max_steps, verbose=options.verbose,
+                                                  label=f"{label} (force-model blend at tau {tau_ot:.3g})"),
+                                 polish=blended((None, None)))
+    z, _ = cont.run(np.asarray(bound.z, float))
+    sh_to = shooting_for("tmin", "ot", tr_to)
+    found = polished_least_thrust([(tau_ot, np.asarray(z, float), 0.0)], _fixed_tau(sh_to, prm, weight, T_ot),
+                                  1.0, 1)
+    if found is None:
+        raise ConvergenceError(f"{label}: the end of the force-model blend does not polish at tau {tau_ot:.3g}",
+                               {"reason": "end point not polished", "tau": tau_ot, "z_best": np.asarray(z).tolist()})
+    _, z, norm = found
+    stats = {**cont.stats.as_dict(), "path": "arclength", "final_residual": norm}
+    extra = {**{k: bound.extra[k] for k in ("weight", "T_ot_N", "eps_blend")},
+             "route": f"{bound.extra['route']}-model", "tau": tau_ot, "bound": True, "throttle_min": 1.0 - tau_ot,
+             "from_model_bound_N": bound.thrust_N, "path_stopped": bound.extra.get("path_stopped")}
+    sol = Solution("tmin", sh_to, np.asarray(z, float), prm, tr_to, stats, extra=extra, tau=tau_ot)
+    sol.thrust_N = float(z[-1]) * tr_to.force_unit
     return sol

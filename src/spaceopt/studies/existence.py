@@ -19,17 +19,21 @@ solution and follows the T_min → OT homotopy back (:func:`solve_from_ot`,
 ``spaceopt.indirect.tmin_from_ot``): it reaches T_min, or stops at a fold and gives an upper
 bound on it (``T_min_is``), which still decides "exists" for any thrust at or above it.
 
+Where that path folds at once too (E7 with 4×4 + Moon + Sun, at τ 0.995), the bound of another
+force model of the case (J2) is carried over to it at its fixed τ by blending the force model
+(:func:`solve_from_bound`, ``tmin_from_ot.bound_in_model``): again an upper bound.
+
 Not in the dissertation; the results are ours (``results/perturbed/existence.csv``).
 """
 from __future__ import annotations
 
 from ..indirect import chain
 from ..indirect.chain import Solution
-from ..indirect.tmin_from_ot import FromOtOptions, solve_tmin_from_ot
+from ..indirect.tmin_from_ot import FromOtOptions, bound_in_model, solve_tmin_from_ot
 from ..indirect.transfer import Transfer
 
 COLUMNS = ("case", "model", "n_rev", "thrust_N", "T_min_N", "T_min_is", "exists", "n_rev_needed", "tof_days",
-           "K_f_deg", "lp_perturbed", "route")
+           "K_f_deg", "lp_perturbed", "route", "bound_from")
 
 
 def _with_verdict(tm: Solution, thrust_N: float) -> tuple[Solution, dict]:
@@ -56,13 +60,24 @@ def solve_from_ot(ot: Solution, label: str, options: FromOtOptions = FromOtOptio
     return _with_verdict(tm, ot.thrust_N)
 
 
+def solve_from_bound(bound: Solution, tr: Transfer, from_model: str, label: str,
+                     options: FromOtOptions = FromOtOptions()) -> tuple[Solution, dict]:
+    """An upper bound on T_min under the force model of ``tr``, carried over from ``bound``, the
+    upper bound of the case's model ``from_model``, and the verdict for the OT thrust that bound
+    was found from (the case's)."""
+    tm = bound_in_model(bound, tr, options, label=f"{label}/bound from {from_model}")
+    tm.extra.update({"lp_perturbed": False, "bound_from": from_model})
+    return _with_verdict(tm, bound.extra["T_ot_N"])
+
+
 def row(case: str, model: str, payload: dict) -> dict:
     """One row of the table from a minimum-thrust artifact."""
     v, s = payload["extra"]["verdict"], payload["scalars"]
     return {"case": case, "model": model, "n_rev": v["n_rev"], "thrust_N": v["thrust_N"],
             "T_min_N": v["T_min_N"], "T_min_is": v.get("T_min_is", "minimum"), "exists": v["exists"],
             "n_rev_needed": v["n_rev_needed_estimate"], "tof_days": s["tof_days"], "K_f_deg": s["K_f_deg"],
-            "lp_perturbed": payload["extra"]["lp_perturbed"], "route": payload["extra"].get("route", "lp-tmin")}
+            "lp_perturbed": payload["extra"]["lp_perturbed"], "route": payload["extra"].get("route", "lp-tmin"),
+            "bound_from": payload["extra"].get("bound_from", "")}
 
 
 def _verdict(row: dict):
@@ -107,7 +122,11 @@ def sentence(rows: list, model_names: dict) -> str:
         if any(_is_bound(r) for r in rs):
             text += (" (upper bounds: the (3.4.1) path from the LP folds, and the $T_{min}\\to$OT homotopy followed "
                      "back from the case's minimum-fuel solution stops at a fold short of $T_{min}$; its point of least "
-                     "thrust is a transfer with a throttle at most 1, so every thrust at or above the bound has one)")
+                     "thrust is a transfer with a throttle at most 1, so every thrust at or above the bound has one"
+                     + "".join(f"; the bound for {model_names.get(r['model'], r['model'])} is that for "
+                               f"{model_names.get(r['bound_from'], r['bound_from'])} carried over at its point of the "
+                               "homotopy by blending the force model, as its own path folds at once"
+                               for r in rs if r.get("bound_from")) + ")")
         parts.append(text)
     if not parts:
         return ""

@@ -163,6 +163,8 @@ def load(json_path) -> Solution:
     prm = tr.params(thrust=None if pinned is None or (isinstance(pinned, float) and math.isnan(pinned)) else pinned)
     sol = Solution(data["scalars"]["stage"], sh, np.asarray(data["z"]), prm, tr, data["solver"],
                    thrust_N=thrust if thrust is not None else float("nan"), tau=m.get("tau", 1.0))
+    if sol.tau != 1.0:           # an upper bound on T_min: its route's data (tmin_from_ot.bound_in_model)
+        sol.extra.update(data["extra"])
     if sol.stage == "lp":
         sol.extra.update({k: data["scalars"][k] for k in ("J_LP_m2s3", "dv_m_s")})
         sol.extra["tof_s"] = data["scalars"]["tof_days"] * DAY

@@ -675,6 +675,28 @@ def existence_from_ot(pc: dict) -> dict[str, dict]:
     return {c: from_ot for c in cases}
 
 
+def existence_bound_from(pc: dict) -> dict[tuple[str, str], str]:
+    """{(case, model): the model whose upper bound the check of ``model`` carries over}
+    (``perturbed.existence.bound_from``, ``spaceopt.indirect.tmin_from_ot.bound_in_model``).
+    Checked: the case is a from_ot case, and both are perturbed models of its check, not the same."""
+    out = {}
+    from_ot, runs = existence_from_ot(pc), existence_runs(pc)
+    for c, pairs in ((pc.get("existence") or {}).get("bound_from") or {}).items():
+        key = f"perturbed.existence.bound_from.{c}"
+        if c not in from_ot:
+            raise ConfigError(key, pairs, "not a case of perturbed.existence.from_ot")
+        models = [m for cc, m in runs if cc == c and m != "unperturbed"]
+        for model, source in pairs.items():
+            for m in (model, source):
+                if m not in models:
+                    raise ConfigError(f"{key}.{model}", m, f"not a perturbed model of the check (expected one of "
+                                                           f"{', '.join(models)})")
+            if model == source:
+                raise ConfigError(f"{key}.{model}", source, "a model cannot carry over its own bound")
+            out[(c, model)] = source
+    return out
+
+
 def existence_runs(pc: dict) -> list[tuple[str, str]]:
     """(case, model) of the minimum-thrust existence check (``perturbed.existence``): each listed
     case that is run, unperturbed first and then the case's models, less those ``skip`` names.
