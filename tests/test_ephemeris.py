@@ -181,7 +181,8 @@ def test_configured_windows_cover_the_studies():
                 and E.utc_to_tdb_seconds(last_departure) + days * 86400.0 <= hi)
 
     assert covers("may2021", "2021-05-01T12:00:00", "2021-05-31T12:00:00", 70)   # E5/E6
-    assert covers("may2021", "2021-05-09T12:00:00", "2021-05-09T12:00:00", 140)  # E7 (assumed), E9
+    assert covers("may2021", "2021-05-09T12:00:00", "2021-05-09T12:00:00", 140)  # E9
+    assert covers("may2021_e7", "2021-05-09T12:00:00", "2021-05-09T12:00:00", 240)  # E7 (assumed) and its T_min bounds
     assert covers("jan2000", "2000-01-01T12:00:00", "2000-01-01T12:00:00", 340)  # E8
     bad = {"windows": {"x": {"start": "2021-05-01", "finish": "2021-06-01"}}}
     with pytest.raises(Exception, match="finish|end"):

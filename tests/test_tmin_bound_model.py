@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 import yaml
 
+from spaceopt import ephemeris
+from spaceopt.errors import ConfigError
 from spaceopt.indirect import chain, tmin_from_ot
 from spaceopt.indirect.flow import Model, field
 from spaceopt.indirect.shooting import residual
@@ -80,3 +82,15 @@ def test_only_a_bound_of_a_perturbed_model_is_carried_over(j2_bound):
         tmin_from_ot.bound_in_model(unbounded, TR_G44)
     with pytest.raises(ValueError, match="eps_blend"):
         tmin_from_ot.bound_in_model(j2_bound, dataclasses.replace(TR_G44, eps_blend=0.1))
+
+
+def test_a_bound_that_arrives_after_the_ephemeris_window_is_refused_by_its_date(j2_bound, tmp_path):
+    """The Moon is NaN outside its window: the carried bound's arrival is checked first and named
+    (E7's bounds arrive 150-160 d after departure)."""
+    path = tmp_path / "short.json"
+    ephemeris.save_window(ephemeris.extract_window("2021-05-01", "2021-05-09", "short"), path, {})
+    with_moon = dataclasses.replace(TR_G44, perturbations={"geopotential": "j2", "third_bodies": ["moon"]},
+                                    ephemeris=str(path))
+    with pytest.raises(ConfigError, match=r"arrival of the bound carried over \(ephemeris window short\)="
+                                          r"'2021-05-1\d.*outside ephemeris window 'short'"):
+        tmin_from_ot.bound_in_model(j2_bound, with_moon)
