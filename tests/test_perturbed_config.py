@@ -1239,6 +1239,7 @@ def test_a_model_carries_over_another_models_bound_only_where_both_are_checked_f
         bad["existence"]["bound_from"] = bound_from
         with pytest.raises(ConfigError, match=match):
             P.existence_bound_from(bad)
+    assert P.existence_bound_from({**PC, "run": ["e9"]}) == {}         # E7 not run (the quick profile)
     bad = copy.deepcopy(PC)
     bad["existence"]["skip"] = {"e7": ["j2"]}                      # the source left out of the check
     with pytest.raises(ConfigError, match=r"bound_from.e7.g44_moon_sun='j2'"):

@@ -678,13 +678,16 @@ def existence_from_ot(pc: dict) -> dict[str, dict]:
 def existence_bound_from(pc: dict) -> dict[tuple[str, str], str]:
     """{(case, model): the model whose upper bound the check of ``model`` carries over}
     (``perturbed.existence.bound_from``, ``spaceopt.indirect.tmin_from_ot.bound_in_model``).
-    Checked: the case is a from_ot case, and both are perturbed models of its check, not the same."""
+    Cases that are not run are left out. Checked: the case is a from_ot case, and both are
+    perturbed models of its check, not the same."""
     out = {}
     from_ot, runs = existence_from_ot(pc), existence_runs(pc)
     for c, pairs in ((pc.get("existence") or {}).get("bound_from") or {}).items():
         key = f"perturbed.existence.bound_from.{c}"
         if c not in from_ot:
             raise ConfigError(key, pairs, "not a case of perturbed.existence.from_ot")
+        if c not in pc["run"]:
+            continue
         models = [m for cc, m in runs if cc == c and m != "unperturbed"]
         for model, source in pairs.items():
             for m in (model, source):
