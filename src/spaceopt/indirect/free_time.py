@@ -352,13 +352,16 @@ class MaximumSearch:
         envelope relation dm_f/dt_f = −m₀ φ by more than ``jump_tol`` (relative): no smooth
         branch joins them, Newton landed on another one. Logged; the step is retried shorter.
 
-        Sound at ε_f only. At ε > 0 the extremals are those of the problem whose cost carries the
-        smoothing penalty (δ of (3.3.2) maximises δS + √c ε √(δ(1 − δ))), and the envelope relation
-        holds for m_f/m₀ plus that penalty's integral, not for m_f: at ε 1e-3 on E8 full 500 m_f
-        rose about 0.2 g per 0.1 d less than −m₀φ says (docs/perturbed-e6-e7-e8.md, "thirty-fourth
+        Sound at ε_f only. At ε > 0 the relation fails by O(ε): at ε 1e-3 on E8 full 500 m_f rose
+        about 0.2 g per 0.1 d less than −m₀φ says (docs/perturbed-e6-e7-e8.md, "thirty-fourth
         session"). The steps this check dropped there (321.059 d, −55 mg; 321.047 d, −23 mg) were
         that drift, not other branches; they sent the lifted search on to the descent that
-        certified the maximum. A sound check at a lifted ε needs the penalty integral (not computed)."""
+        certified the maximum. Adding the smoothing penalty's integral Q (δ of (3.3.2) maximises
+        δS + √c ε √(δ(1 − δ))) does not make it exact: the field freezes δ and differentiates H
+        without the penalty, whose factor k1 depends on the state, so at ε > 0 the smoothed system
+        is the Pontryagin system of no cost. Q is the first-order correction only: on perturbed E1
+        (steps of 0.001 d) ΔQ is 1.0, 1.18 and 1.58 times the miss of m_f at ε 1e-4, 1e-3 and
+        1e-2 ("thirty-fifth session", docs/experiments/envelope_at_eps.py)."""
         if np.sign(p.phi) != np.sign(last.phi):
             return False
         against = (p.m_f - last.m_f) * -np.sign(last.phi) * direction < -self.opt.jump_tol * abs(last.m_f)
