@@ -10,13 +10,12 @@
 #   results/perturbed/{e5,e6_date_scan,e7,e8,e9}.csv, reproduction.csv, paper_section.tex, figures/
 #   results/perturbed/tof_maximum.csv                   the free-time end game of every perturbed solve
 #   results/perturbed/<case>/tmin_<model>.{json,...}    the minimum-thrust existence check per force model
-#   results/perturbed/existence.csv                     its table (E5, E9)
+#   results/perturbed/existence.csv                     its table (E5, E7, E9)
 import os
 from spaceopt.studies.failed_solves import diagnosis, failures_sentence, left_out, without_failed
 from spaceopt.studies.perturbed import (e8_count_start, e8_model_steps, e8_runs, e8_skipped, e8_smoothing,
                                         existence_bound_from, existence_from_ot, existence_runs, scan_dates,
-                                        scan_run_dates,
-                                        scan_source)
+                                        scan_run_dates, scan_source)
 from spaceopt.studies.scan_families import link_pairs, link_settings, start_pairs
 from spaceopt.studies.scan_walks import walk_dates, walk_settings
 
