@@ -56,6 +56,11 @@ class FromOtOptions:
     candidates: int = 8             # least-thrust path points tried by the bound's polish
     verbose: bool = True
 
+    def arclength(self, label: str) -> ArclengthOptions:
+        """The path follower's options."""
+        return ArclengthOptions(h_max=self.h_max, tol_step=self.tol_step, max_steps=self.max_steps,
+                                verbose=self.verbose, label=label)
+
 
 def tau_of(s, decades):
     """τ(s) from 1 (s = 0) to 0 (s = 1), and dτ/ds: τ = 1 − s for ``decades`` = 0, else
@@ -100,14 +105,23 @@ def polished_least_thrust(trace, evaluate, tol, candidates):
     can fail on the least-T point (E7 J2). ``evaluate(z, τ)`` returns :func:`shoot`'s tuple."""
     on_path = sorted((p for p in trace if p[2] < tol), key=lambda p: p[1][-1])
     for tau, z, _ in on_path[:candidates]:
-        for _ in range(10):
-            f, J, _, _, ok = evaluate(z, tau)
-            norm = float(jnp.linalg.norm(f))
-            if not ok or not np.isfinite(norm):
-                break
-            if norm < 1e-11:
-                return tau, z, norm
-            z = z - np.linalg.solve(np.asarray(J), np.asarray(f))
+        found = newton_at_fixed_tau(evaluate, z, tau)
+        if found is not None:
+            return (tau, *found)
+    return None
+
+
+def newton_at_fixed_tau(evaluate, z, tau, iterations=10):
+    """Newton on f(·, τ) from z to |f| < 1e-11: (z, |f|), or None where it fails within
+    ``iterations``; ``evaluate(z, τ)`` returns :func:`shoot`'s tuple."""
+    for _ in range(iterations):
+        f, J, _, _, ok = evaluate(z, tau)
+        norm = float(jnp.linalg.norm(f))
+        if not ok or not np.isfinite(norm):
+            return None
+        if norm < 1e-11:
+            return z, norm
+        z = z - np.linalg.solve(np.asarray(J), np.asarray(f))
     return None
 
 
@@ -139,9 +153,7 @@ def solve_tmin_from_ot(ot: Solution, options: FromOtOptions = FromOtOptions(), l
     on_path = reversed_map(lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm, rtol, atol),
                            weight, z0[-1], options.tau_decades, trace)
     at_end = lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm)  # noqa: E731
-    cont = ArclengthContinuation(on_path, ArclengthOptions(h_max=options.h_max, tol_step=options.tol_step,
-                                                           max_steps=options.max_steps, verbose=options.verbose,
-                                                           label=f"{label} (OT -> T_min)"),
+    cont = ArclengthContinuation(on_path, options.arclength(f"{label} (OT -> T_min)"),
                                  polish=reversed_map(at_end, weight, z0[-1], options.tau_decades))
     extra = {"route": "ot-tmin", "weight": weight, "T_ot_N": ot.thrust_N, "eps_blend": tr.eps_blend,
              "eps_up": start.stats if start is not ot else None}
@@ -213,18 +225,15 @@ def bound_in_model(bound: Solution, tr_to, options: FromOtOptions = FromOtOption
     blended = lambda tol: lambda z, b: weighted_thrust_row(  # noqa: E731
         shoot(sh, jnp.asarray(z), b, blend_prm, *tol), z, tau_ot, weight, T_ot, tau_moves=False)
     cont = ArclengthContinuation(blended((rtol, atol)),
-                                 ArclengthOptions(h_max=options.h_max, tol_step=options.tol_step,
-                                                  max_steps=options.max_steps, verbose=options.verbose,
-                                                  label=f"{label} (force-model blend at tau {tau_ot:.3g})"),
+                                 options.arclength(f"{label} (force-model blend at tau {tau_ot:.3g})"),
                                  polish=blended((None, None)))
     z, _ = cont.run(np.asarray(bound.z, float))
     sh_to = shooting_for("tmin", "ot", tr_to)
-    found = polished_least_thrust([(tau_ot, np.asarray(z, float), 0.0)], _fixed_tau(sh_to, prm, weight, T_ot),
-                                  1.0, 1)
+    found = newton_at_fixed_tau(_fixed_tau(sh_to, prm, weight, T_ot), np.asarray(z, float), tau_ot)
     if found is None:
         raise ConvergenceError(f"{label}: the end of the force-model blend does not polish at tau {tau_ot:.3g}",
                                {"reason": "end point not polished", "tau": tau_ot, "z_best": np.asarray(z).tolist()})
-    _, z, norm = found
+    z, norm = found
     stats = {**cont.stats.as_dict(), "path": "arclength", "final_residual": norm}
     extra = {**{k: bound.extra[k] for k in ("weight", "T_ot_N", "eps_blend")},
              "route": f"{bound.extra['route']}-model", "tau": tau_ot, "bound": True, "throttle_min": 1.0 - tau_ot,
