@@ -162,12 +162,18 @@ def _run_multiple(sh: Shooting, z0, prm, label, options, path, arcs):
         # the single-shooting polish, which lacks the nearly flat node-time directions (E8 500
         # rev at τ = 1: σ_min 2.7e-5 of σ_max 3.9e3 over 10 arcs; 3.7e-4 in single shooting)
         Z, stats = np.asarray(exc.diagnosis["z"]), {**failure_statistics(exc.diagnosis), "polish_failed": str(exc)}
-    single = lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm)
-    polish = Continuation(single, path_options("tau", options, f"{label} single-shooting polish"),
-                          polish=lambda z, tau: single(z, tau),
-                          residual=lambda z, tau: residual(sh, jnp.asarray(z), tau, prm))
-    z, stats_polish = _follow(polish, Z[:sh.size], "tau", tau0=1.0)
+    z, stats_polish = _newton_at_end(sh, Z[:sh.size], prm, f"{label} single-shooting polish", options)
     return z, {**_merge_stats({"multiple_shooting": stats, "single_polish": stats_polish}), "arcs": arcs}
+
+
+def _newton_at_end(sh: Shooting, z0, prm, label, options):
+    """Newton on the map of ``sh`` at τ = 1 from z0 (the follower's polish, end-point tolerances)."""
+    single = lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm)  # noqa: E731
+    # a polish distinct from the path's map: the follower then re-evaluates f at τ = 1 instead of
+    # taking its Newton homotopy's F = f − b, which is 0 where it starts
+    polish = Continuation(single, path_options("tau", options, label), polish=lambda z, tau: single(z, tau),
+                          residual=lambda z, tau: residual(sh, jnp.asarray(z), tau, prm))
+    return _follow(polish, z0, "tau", tau0=1.0)
 
 
 def _merge_stats(parts: dict) -> dict:
@@ -346,6 +352,27 @@ def smoothing_to(sol: Solution, eps_to: float, options=None, label="eps") -> Sol
     z, stats = _run(sh, sol.z, prm, label, options)
     return Solution("ot", sol.shooting, z, {**sol.prm, "eps_final": jnp.asarray(eps_to)},
                     sol.transfer, stats, thrust_N=sol.thrust_N)
+
+
+def to_exact(sol: Solution, options=None, label="exact") -> Solution:
+    """The OT solution ``sol`` (smoothed, at any ε) moved to the exact bang-bang problem,
+    δ = 1[S > 0] with the switches located (:mod:`.exact_switching`), by Newton at τ = 1.
+
+    The exact problem is the limit ε → 0 of the smoothing (3.3.2), so the descent in ε can be
+    skipped: at E8 500 revolutions Newton from the ε = 10⁻² root lands on the exact root in 6
+    Jacobians, each 5–6× cheaper than one at ε_f (docs/perturbed-e6-e7-e8.md, "thirtieth
+    session"). The solution's layout is kept (fixed or free time); its paths afterwards are
+    followed on the exact map, by single shooting. An LP → OT solution is read as the pure OT
+    problem it is at τ = 1."""
+    if sol.stage != "ot" or sol.tau != 1.0:
+        raise ValueError("to_exact: a converged OT solution (τ = 1) is needed")
+    model = sol.shooting.model
+    if model.homotopy == "lp":
+        model = Model("ot", "eps", model.perturbed)
+    sh = dataclasses.replace(sol.shooting, model=model, switching="exact", path_arcs=1)
+    z, stats = _newton_at_end(sh, np.asarray(sol.z, float), sol.prm, label, options)
+    return Solution("ot", sh, z, dict(sol.prm), sol.transfer, {**stats, "switching": "exact"},
+                    thrust_N=sol.thrust_N, extra=dict(sol.extra))
 
 
 def through_smoothing(sol: Solution, eps_smooth: float, step, options=None, label="param") -> Solution:

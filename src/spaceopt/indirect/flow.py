@@ -141,10 +141,13 @@ def _h_perturbation(model: Model, K, x, lam, tau, prm, shift):
     return _pert_weight(model, tau) * hm.h_pert(K, x, lam, prm, shift)
 
 
-def field(model: Model, K, y, tau, prm):
-    """dy/dK of ``model`` at homotopy parameter τ (perturbation field added when perturbed)."""
+def field(model: Model, K, y, tau, prm, delta=None):
+    """dy/dK of ``model`` at homotopy parameter τ (perturbation field added when perturbed).
+
+    ``delta`` fixes the throttle of a pure OT field (0 or 1 on an arc of the exact bang-bang map,
+    :mod:`.exact_switching`) instead of the smoothed δ(S, ε)."""
     prm = params_at(model, prm, tau)
-    g = _unperturbed_field(model, K, y, tau, prm)
+    g = _unperturbed_field(model, K, y, tau, prm, delta)
     if model.perturbed:
         shift = _pert_shift(model, y, tau, prm)
         g = g + hamiltonian_field(
@@ -152,12 +155,22 @@ def field(model: Model, K, y, tau, prm):
     return g
 
 
-def _unperturbed_field(model: Model, K, y, tau, prm):
+def _ot_throttle(model: Model, K, y, tau, prm, delta):
+    """(δ, problem data at the OT thrust): the smoothed δ(S, ε), or ``delta`` where it is given."""
+    if delta is None:
+        delta, _, prm_t = ot_delta(model, K, y, tau, prm)
+        return delta, prm_t
+    if model.kind != "ot" or model.homotopy == "lp":
+        raise ValueError(f"a fixed throttle needs a pure OT model, not {model}")
+    return delta, {**prm, "thrust": ot_params(model, tau, prm)[0]}
+
+
+def _unperturbed_field(model: Model, K, y, tau, prm, delta=None):
     n = model.n
     if model.kind == "lp":
         return hamiltonian_field(partial(hm.h_lp, prm={**prm, "lp_scale": 1.0}), K, y, n)
     if model.kind == "ot":
-        delta, _, prm_t = ot_delta(model, K, y, tau, prm)
+        delta, prm_t = _ot_throttle(model, K, y, tau, prm, delta)
         g_tgt = hamiltonian_field(partial(hm.h_ot, prm=prm_t, delta=delta), K, y, n)
         if model.homotopy != "lp":
             return g_tgt
@@ -184,23 +197,24 @@ def _unperturbed_field(model: Model, K, y, tau, prm):
     return g
 
 
-def hamiltonian(model: Model, K, y, tau, prm):
-    """H entering the transversality residual p_LK(0) + H(0): (1−τ) H_LP' + τ H_target [+ τ H_p]."""
+def hamiltonian(model: Model, K, y, tau, prm, delta=None):
+    """H entering the transversality residual p_LK(0) + H(0): (1−τ) H_LP' + τ H_target [+ τ H_p];
+    ``delta`` as in :func:`field`."""
     prm = params_at(model, prm, tau)
-    h = _unperturbed_hamiltonian(model, K, y, tau, prm)
+    h = _unperturbed_hamiltonian(model, K, y, tau, prm, delta)
     if model.perturbed:
         n = model.n
         h = h + _h_perturbation(model, K, y[:n], y[n:], tau, prm, _pert_shift(model, y, tau, prm))
     return h
 
 
-def _unperturbed_hamiltonian(model: Model, K, y, tau, prm):
+def _unperturbed_hamiltonian(model: Model, K, y, tau, prm, delta=None):
     n = model.n
     x, lam = y[:n], y[n:]
     if model.kind == "lp":
         return hm.h_lp(K, x, lam, {**prm, "lp_scale": 1.0})
     if model.kind == "ot":
-        delta, _, prm_t = ot_delta(model, K, y, tau, prm)
+        delta, prm_t = _ot_throttle(model, K, y, tau, prm, delta)
         h_t = hm.h_ot(K, x, lam, prm_t, delta)
     elif model.homotopy in ("ot", "model"):
         tau_ot = tmin_ot_tau(model, tau, prm)

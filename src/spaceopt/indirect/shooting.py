@@ -33,6 +33,12 @@ from . import hamiltonians as hm
 from .flow import Model, field, hamiltonian, params_at, propagate, propagate_with_sensitivities, tmin_ot_tau
 from .transfer import MAX_STEPS, PATH_RTOL
 
+
+def exact_switching_supports(model: Model) -> bool:
+    """Whether the exact bang-bang map is defined for ``model``: a pure OT field (δ a function of
+    S only; the LP → OT blend and the T_min problems have no switches of that kind)."""
+    return model.kind == "ot" and model.homotopy != "lp"
+
 COSTATE_NAMES = ("p_p", "p_ex", "p_ey", "p_ix", "p_iy", "p_LK", "p_t", "p_m")
 
 
@@ -48,6 +54,15 @@ class Shooting:
     fixed_time: bool = False      # t(K_f) = t_f (1.1.11) replaces p_t(K_f) = 0; p_t is then an unknown
     path_arcs: int = dc_field(default=1, compare=False)    # > 1: paths followed by multiple
     # shooting over that many arcs (chain._run, multiple_shooting); end points by single shooting
+    switching: str = "smoothed"   # 'exact': δ = 1[S > 0] with switches located (.exact_switching)
+
+    def __post_init__(self):
+        if self.switching not in ("smoothed", "exact"):
+            raise ValueError(f"switching: {self.switching!r} is neither 'smoothed' nor 'exact'")
+        if self.switching == "exact" and not exact_switching_supports(self.model):
+            raise ValueError(f"switching: 'exact' needs a pure OT model, not {self.model}")
+        if self.switching == "exact" and self.path_arcs > 1:
+            raise ValueError(f"switching: 'exact' is single shooting (path_arcs {self.path_arcs})")
 
     @property
     def has_thrust(self) -> bool:
@@ -112,17 +127,27 @@ def shoot(sh: Shooting, z, tau, prm, rtol=None, atol=None):
     ``rtol``/``atol`` default to the Shooting's end-point tolerances; they are traced, so the
     loose path tolerance and the tight end-point tolerance share one compiled function.
     """
-    return _shoot(sh, z, tau, prm, sh.rtol if rtol is None else rtol, sh.atol if atol is None else atol)
+    return _map(sh, "shoot")(sh, z, tau, prm, sh.rtol if rtol is None else rtol,
+                             sh.atol if atol is None else atol)
+
+
+def _map(sh: Shooting, name: str):
+    """The smoothed map's function ``name`` (this module), or the exact map's (.exact_switching)."""
+    if sh.switching == "exact":
+        from . import exact_switching
+        return getattr(exact_switching, name)
+    return {"shoot": _shoot, "residual": _residual, "final_state": _final_state}[name]
 
 
 def residual(sh: Shooting, z, tau, prm, rtol=None, atol=None):
     """f(z, τ) of :func:`shoot` without its derivatives (residual, success flag)."""
-    return _residual(sh, z, tau, prm, sh.rtol if rtol is None else rtol, sh.atol if atol is None else atol)
+    return _map(sh, "residual")(sh, z, tau, prm, sh.rtol if rtol is None else rtol,
+                                sh.atol if atol is None else atol)
 
 
 def final_state(sh: Shooting, z, tau, prm):
     """y(K_f) from the unknowns z at the end-point tolerances, and the success flag."""
-    return _final_state(sh, z, tau, prm, sh.rtol, sh.atol)
+    return _map(sh, "final_state")(sh, z, tau, prm, sh.rtol, sh.atol)
 
 
 @partial(jax.jit, static_argnums=0)

@@ -1,0 +1,259 @@
+"""The minimum-fuel shooting map with the exact bang-bang throttle δ = 1[S > 0] and its Jacobian.
+
+Why: the smoothed throttle δ(S, ε) (3.3.2) turns from 0 to 1 over |S| ≲ ε, and at ε_f = 1e-5
+Dopri8's error control resolves each of these steep transitions with many small steps: three
+quarters of the steps of an E8 500 propagation (56 541 at ε_f against 14 084 at ε = 0.1) go into
+the 1 043 switches, not the orbit (docs/perturbed-e6-e7-e8.md, "thirtieth session"). The exact
+map is the limit ε → 0 the smoothing approximates; its extremal agrees with ε = 1e-7 a hundred to
+a thousand times better than ε_f's does.
+
+The map, for a pure OT model (``Model('ot', h)`` with h ≠ 'lp': the end-point problem, the
+force-model blend 'model', the perturbation switch 'pert', a parameter path 'param'):
+
+1. **Switches by events** (pass 1, y alone). Each arc is integrated with δ fixed (0 or 1) in
+   segments of at most ``SEGMENT_STEPS`` Dopri8 steps; a diffrax event stops a segment at the
+   first step end where (2δ − 1) S < −``S_NOISE`` (the throttle on the wrong side). S is sampled
+   on the segment's dense output (8th order), ``SAMPLES_PER_STEP`` points in every step, so an
+   arc shorter than a step (S across zero and back between two step ends, which the event cannot
+   see) is caught too. The first sample on the wrong side after one on the right side brackets the
+   switch K_s, which bisection on the interpolant locates; y(K_s) is then stepped from the last
+   accepted step point before K_s (the interpolant's own error, summed over a thousand switches,
+   moved t(K_f) by 3e-5 TU at E8 500). diffrax's own event root find was tried in the spike and
+   stopped at its iteration limit on a tenth of the arcs at E8 500, returning times up to 6 rad off.
+2. **Sensitivities with saltation** (pass 2). (y, Φ), Φ = ∂y/∂(z, τ), are integrated over the
+   arcs of pass 1 with δ fixed, Φ' = g_y Φ (+ g_τ), and at each switch
+
+       dK_s/dp = −(∇_y S · Φ⁻_p + ∂S/∂p) / (∂S/∂K + ∇_y S · g⁻),    Φ⁺ = Φ⁻ + (g⁻ − g⁺) dK_s/dp,
+
+   the jump of the sensitivities across the discontinuity of the field (the saltation matrix).
+3. The residual and Jacobian are assembled as :func:`.shooting._shoot` does, with δ fixed at its
+   K = 0 value in the transversality condition and δ of the last arc in the K_f column.
+
+Both passes run inside one compiled ``lax.while_loop`` each. Written by hand because diffrax
+integrates one smooth field per solve: the arc loop, the bracketing and the saltation are the
+standard treatment of a field discontinuous across a switching surface. A switch where S is
+tangent to zero (∂S/∂K + ∇_y S · g⁻ → 0) makes dK_s/dz unbounded; the map has no answer there,
+and the success flag stays true (the smoothed map is the fallback, chosen by the caller).
+The spike and its measurements: docs/experiments/e8_exact_switching.py.
+"""
+from __future__ import annotations
+
+from functools import partial
+
+import diffrax
+import jax
+import jax.numpy as jnp
+
+from . import hamiltonians as hm
+from .flow import _primal_rms, field, hamiltonian, ot_delta, params_at
+from .shooting import (initial_state, start_with_sensitivities, terminal_residual,
+                       terminal_with_derivatives)
+
+SEGMENT_STEPS = 32        # Dopri8 steps per segment of pass 1 (sizes its dense output)
+SAMPLES_PER_STEP = 8      # samples of S per step of a segment (arcs shorter than a step)
+S_NOISE = 1e-10           # |S| of the integration error at a switch (S is of order 1e-2 at E8)
+MAX_SWITCHES = 8192       # capacity of the switch list (E8 500: 1 043)
+BISECTIONS = 60           # halvings of the bracketing sample interval (≤ 0.05 rad → 4e-20 rad)
+RESTEP_STEPS = 64
+
+RUNNING, DONE, NO_CROSSING, TOO_MANY_SWITCHES, STEP_LIMIT, INTEGRATION_FAILED = range(6)
+STATUS = ("running", "done", "event without a crossing", "switch list full", "step limit reached",
+          "integration failed")
+
+
+def switching(model, K, y, tau, prm):
+    """S(K, y) of the OT throttle at τ, the problem data moved along a 'param' path."""
+    return ot_delta(model, K, y, tau, params_at(model, prm, tau))[1]
+
+
+def throttle_at(model, K, y, tau, prm):
+    """δ = 1[S > 0] (a constant for the derivatives)."""
+    return jax.lax.stop_gradient(jnp.where(switching(model, K, y, tau, prm) > 0, 1.0, 0.0))
+
+
+def _controller(rtol, atol):
+    return diffrax.PIDController(rtol=rtol, atol=atol, norm=_primal_rms)
+
+
+def _arc_rhs(model):
+    return lambda K, y, a: field(model, K, y, a[0], a[1], delta=a[2])
+
+
+def _segment(model, K, Kf, y, delta, tau, prm, rtol, atol, segment_steps):
+    """At most ``segment_steps`` steps of the arc with throttle δ from K toward K_f, stopped at the
+    first step end with the throttle on the wrong side; dense output kept."""
+    def wrong_side(t, yy, args, **_):
+        return (2.0 * args[2] - 1.0) * switching(model, t, yy, args[0], args[1]) < -S_NOISE
+    return diffrax.diffeqsolve(
+        diffrax.ODETerm(_arc_rhs(model)), diffrax.Dopri8(), t0=K, t1=Kf, dt0=None, y0=y,
+        args=(tau, prm, delta), stepsize_controller=_controller(rtol, atol),
+        saveat=diffrax.SaveAt(t1=True, dense=True), max_steps=segment_steps, throw=False,
+        event=diffrax.Event(wrong_side))
+
+
+def _crossing(model, sol, K, Kend, delta, tau, prm):
+    """(crossed, K_a, K_b): the first sample interval of the segment where the throttle passes
+    from the right side to the wrong side of S = 0."""
+    ts = sol.interpolation.ts
+    a, b = ts[:-1], ts[1:]
+    valid = b <= Kend                                     # steps taken (the padding is +inf)
+    frac = jnp.arange(1, SAMPLES_PER_STEP + 1) / SAMPLES_PER_STEP
+    ks = jnp.where(valid[:, None], a[:, None] + (b - a)[:, None] * frac[None, :], Kend).ravel()
+    valid = jnp.repeat(valid, SAMPLES_PER_STEP)
+    side = (2.0 * delta - 1.0) * jax.vmap(lambda k: switching(model, k, sol.evaluate(k), tau, prm))(ks)
+    right = valid & (side > 0)
+    idx = jnp.arange(ks.size)
+    first_right = jnp.where(jnp.any(right), jnp.argmax(right), ks.size)
+    below = valid & (side <= 0) & (idx > first_right)
+    j = jnp.argmax(below)
+    return jnp.any(below), jnp.where(j > 0, ks[j - 1], K), ks[j]
+
+
+def _locate(model, sol, Ka, Kb, delta, tau, prm, rtol, atol):
+    """K_s by bisection on the dense output, and y(K_s) stepped from the last step point before it."""
+    def right_side(k):
+        return (2.0 * delta - 1.0) * switching(model, k, sol.evaluate(k), tau, prm) > 0
+
+    def halve(_, ab):
+        m = 0.5 * (ab[0] + ab[1])
+        ok = right_side(m)
+        return jnp.where(ok, m, ab[0]), jnp.where(ok, ab[1], m)
+    a, b = jax.lax.fori_loop(0, BISECTIONS, halve, (Ka, Kb))
+    Ks = 0.5 * (a + b)
+    ts = sol.interpolation.ts
+    tj = ts[jnp.maximum(jnp.searchsorted(ts, Ks, side="right") - 1, 0)]
+    out = diffrax.diffeqsolve(
+        diffrax.ODETerm(_arc_rhs(model)), diffrax.Dopri8(), t0=tj, t1=Ks, dt0=None,
+        y0=sol.evaluate(tj), args=(tau, prm, delta), stepsize_controller=_controller(rtol, atol),
+        saveat=diffrax.SaveAt(t1=True), max_steps=RESTEP_STEPS, throw=False)
+    return Ks, out.ys[-1], out.stats["num_steps"]
+
+
+def switches(model, y0, Kf, tau, prm, rtol, atol, max_steps, segment_steps=SEGMENT_STEPS):
+    """Pass 1: a dict with δ on the first arc ``d0``, the switch points ``Ks`` (the first
+    ``n_switches`` entries of a MAX_SWITCHES array, the rest K_f), y(K_f) ``yf``, ``steps``
+    and ``status`` (an index into STATUS)."""
+    d0 = throttle_at(model, 0.0, y0, tau, prm)
+
+    def step(c):
+        K, y, delta, Ks, n_sw, steps, status = c
+        sol = _segment(model, K, Kf, y, delta, tau, prm, rtol, atol, segment_steps)
+        Kend, yend = sol.ts[-1], sol.ys[-1]
+        steps = steps + sol.stats["num_steps"]
+        crossed, Ka, Kb = _crossing(model, sol, K, Kend, delta, tau, prm)
+
+        def switch(_):
+            Ks_, ys_, st = _locate(model, sol, Ka, Kb, delta, tau, prm, rtol, atol)
+            full = n_sw + 1 >= MAX_SWITCHES
+            return (Ks_, ys_, 1.0 - delta, Ks.at[n_sw].set(Ks_), n_sw + 1, steps + st,
+                    jnp.where(full, TOO_MANY_SWITCHES, RUNNING))
+
+        def go_on(_):
+            res = sol.result
+            status_ = jnp.where(
+                res == diffrax.RESULTS.successful, DONE,
+                jnp.where(res == diffrax.RESULTS.max_steps_reached, RUNNING,
+                          jnp.where(res == diffrax.RESULTS.event_occurred, NO_CROSSING, INTEGRATION_FAILED)))
+            return Kend, yend, delta, Ks, n_sw, steps, status_
+
+        out = jax.lax.cond(crossed, switch, go_on, None)
+        return (*out[:6], jnp.where((out[6] == RUNNING) & (out[5] > max_steps), STEP_LIMIT, out[6]))
+
+    init = (jnp.asarray(0.0), y0, d0, jnp.full(MAX_SWITCHES, Kf), jnp.asarray(0), jnp.asarray(0),
+            jnp.asarray(RUNNING))
+    K, y, _, Ks, n_sw, steps, status = jax.lax.while_loop(lambda c: c[6] == RUNNING, step, init)
+    return dict(d0=d0, Ks=Ks, n_switches=n_sw, yf=y, steps=steps, status=status)
+
+
+def _saltation(model, K, y, Phi, delta, tau, prm):
+    """Φ⁺ = Φ⁻ + (g⁻ − g⁺) dK_s/d(z, τ) at a switch from throttle δ (the τ column last)."""
+    g_minus = field(model, K, y, tau, prm, delta=delta)
+    g_plus = field(model, K, y, tau, prm, delta=1.0 - delta)
+    S_K, S_y, S_tau = jax.grad(lambda k, yy, t: switching(model, k, yy, t, prm), argnums=(0, 1, 2))(K, y, tau)
+    dKs = -(S_y @ Phi + S_tau * jnp.zeros(Phi.shape[1]).at[-1].set(1.0)) / (S_K + S_y @ g_minus)
+    return Phi + jnp.outer(g_minus - g_plus, dKs)
+
+
+def propagate_with_sensitivities(model, y0, Phi0, Kf, tau, prm, rtol, atol, max_steps, d0, Ks, n_switches):
+    """Pass 2: y(K_f), Φ(K_f), δ on the last arc, steps, success; the τ column of Φ last."""
+    tau_tangent = jnp.zeros(Phi0.shape[1]).at[-1].set(1.0)
+
+    def rhs(K, Y, a):
+        gy, lin = jax.linearize(lambda yy, tt: field(model, K, yy, tt, a[1], delta=a[2]), Y[0], a[0])
+        return gy, jax.vmap(lin, in_axes=(1, 0), out_axes=1)(Y[1], tau_tangent)
+
+    def arc(c):
+        i, K, y, Phi, delta, steps, ok = c
+        K1 = Ks[i]                                   # K_f past the last switch
+        sol = diffrax.diffeqsolve(
+            diffrax.ODETerm(rhs), diffrax.Dopri8(), t0=K, t1=K1, dt0=None, y0=(y, Phi),
+            args=(tau, prm, delta), stepsize_controller=_controller(rtol, atol),
+            saveat=diffrax.SaveAt(t1=True), max_steps=max_steps, throw=False)
+        y, Phi = sol.ys[0][-1], sol.ys[1][-1]
+        last = i >= n_switches
+        Phi = jax.lax.cond(last, lambda: Phi, lambda: _saltation(model, K1, y, Phi, delta, tau, prm))
+        return (i + 1, K1, y, Phi, jnp.where(last, delta, 1.0 - delta), steps + sol.stats["num_steps"],
+                ok & (sol.result == diffrax.RESULTS.successful))
+
+    init = (jnp.asarray(0), jnp.asarray(0.0), y0, Phi0, d0, jnp.asarray(0), jnp.asarray(True))
+    _, _, yf, Phif, d_last, steps, ok = jax.lax.while_loop(
+        lambda c: (c[0] <= n_switches) & c[6], arc, init)
+    return yf, Phif, d_last, steps, ok
+
+
+def transversality(sh, z, tau, prm, delta):
+    """p_LK(0) + H(0) with the throttle δ fixed at its K = 0 value."""
+    y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
+    return y0[sh.model.n + hm.LK] + hamiltonian(sh.model, 0.0, y0, tau, prm, delta=delta)
+
+
+@partial(jax.jit, static_argnums=0)
+def residual(sh, z, tau, prm, rtol, atol):
+    """f(z, τ) of the exact map, and the success flag (pass 1 only)."""
+    kf = sh.kf_index
+    y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
+    p1 = switches(sh.model, y0, z[kf], tau, prm, rtol, atol, sh.max_steps)
+    r_term = terminal_residual(sh, p1["yf"], z[kf], params_at(sh.model, prm, tau), tau)
+    f = jnp.concatenate([jnp.atleast_1d(transversality(sh, z, tau, prm, p1["d0"])), r_term])
+    return f, p1["status"] == DONE
+
+
+@partial(jax.jit, static_argnums=0)
+def final_state(sh, z, tau, prm, rtol, atol):
+    """y(K_f) of the exact map, and the success flag."""
+    y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
+    p1 = switches(sh.model, y0, z[sh.kf_index], tau, prm, rtol, atol, sh.max_steps)
+    return p1["yf"], p1["status"] == DONE
+
+
+@partial(jax.jit, static_argnums=0)
+def shoot(sh, z, tau, prm, rtol, atol):
+    """f(z, τ), ∂f/∂z, ∂f/∂τ, steps of both passes, success (:func:`.shooting.shoot`'s tuple)."""
+    kf, model = sh.kf_index, sh.model
+    y0, dy0_dz, dy0_dtau = start_with_sensitivities(sh, z, tau, prm)
+    p1 = switches(model, y0, z[kf], tau, prm, rtol, atol, sh.max_steps)
+    Phi0 = jnp.concatenate([dy0_dz, dy0_dtau[:, None]], axis=1)
+    yf, Phif, d_last, steps2, ok2 = propagate_with_sensitivities(
+        model, y0, Phi0, z[kf], tau, prm, rtol, atol, sh.max_steps, p1["d0"], p1["Ks"], p1["n_switches"])
+    gf = field(model, z[kf], yf, tau, prm, delta=d_last)
+
+    r_term, dr_dy, dr_dK, dr_dtau = terminal_with_derivatives(sh, yf, z[kf], tau, prm)
+    dyf_dz = jnp.insert(Phif[:, :-1], kf, gf, axis=1)
+    J_term = (dr_dy @ dyf_dz).at[:, kf].add(dr_dK)
+    ftau_term = dr_dy @ Phif[:, -1] + dr_dtau
+
+    r0_of = lambda zz, tt: transversality(sh, zz, tt, prm, p1["d0"])  # noqa: E731
+    r0 = r0_of(z, tau)
+    dr0_dz, dr0_dtau = jax.jacfwd(r0_of, argnums=(0, 1))(z, tau)
+    f = jnp.concatenate([jnp.atleast_1d(r0), r_term])
+    J = jnp.concatenate([dr0_dz[None, :], J_term], axis=0)
+    ftau = jnp.concatenate([jnp.atleast_1d(dr0_dtau), ftau_term])
+    return f, J, ftau, p1["steps"] + steps2, ok2 & (p1["status"] == DONE)
+
+
+@partial(jax.jit, static_argnums=0)
+def switch_points(sh, z, tau, prm, rtol, atol):
+    """Pass 1's switches of the unknowns z: (δ on the first arc, K_s array, count, status)."""
+    y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
+    p1 = switches(sh.model, y0, z[sh.kf_index], tau, prm, rtol, atol, sh.max_steps)
+    return p1["d0"], p1["Ks"], p1["n_switches"], p1["status"]

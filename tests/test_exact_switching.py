@@ -1,0 +1,108 @@
+"""The exact bang-bang shooting map (spaceopt.indirect.exact_switching) on E1 (2 revolutions)
+under J2: switches, Jacobian, τ column, Newton from the smoothed root, chain.to_exact."""
+import dataclasses
+from pathlib import Path
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+import yaml
+
+from spaceopt.indirect import chain, exact_switching as X, hamiltonians as hm
+from spaceopt.indirect.flow import Model
+from spaceopt.indirect.shooting import Shooting, final_state, initial_state, residual, shoot
+from spaceopt.studies import multirev
+
+ROOT = Path(__file__).resolve().parents[1]
+CFG = yaml.safe_load((ROOT / "config" / "studies" / "multirev.yaml").read_text())["multirev"]
+TR = dataclasses.replace(multirev.transfer_from_config(CFG, "e1"), perturbations={"geopotential": "j2"},
+                         epoch_utc="2021-05-09T12:00:00")
+
+
+@pytest.fixture(scope="module")
+def smoothed():
+    """The smoothed OT extremal at ε_f = 1e-5 (LP → OT → ε), and its exact layout."""
+    ot = chain.solve_ot(chain.solve_lp(TR, perturbed=True), 15.0)
+    return ot, dataclasses.replace(ot.shooting, switching="exact")
+
+
+def _switching_along(ot):
+    """S on the smoothed extremal's dense trajectory, 400 samples per revolution: (K, S)."""
+    Ks, ys = chain.dense(ot, samples_per_rev=400)
+    S = np.array([float(X.switching(ot.shooting.model, k, jnp.asarray(y), 1.0, ot.prm)) for k, y in zip(Ks, ys)])
+    return Ks, S
+
+
+def test_the_switches_are_the_sign_changes_of_the_smoothed_extremal(smoothed):
+    """Pass 1 finds one switch per sign change of S along the smoothed extremal (sampled at 400
+    points per revolution), each within one sample interval of it, and it does not depend on
+    how the arcs are cut into segments."""
+    ot, sh = smoothed
+    z = jnp.asarray(ot.z)
+    d0, Ks, n_sw, status = X.switch_points(sh, z, 1.0, ot.prm, sh.rtol, sh.atol)
+    assert X.STATUS[int(status)] == "done"
+    K, S = _switching_along(ot)
+    changes = np.nonzero(np.diff(np.sign(S)))[0]
+    assert int(n_sw) == len(changes) >= 4
+    dK = K[1] - K[0]
+    np.testing.assert_array_less(np.abs(np.asarray(Ks[:int(n_sw)]) - K[changes] - dK / 2), dK)
+    assert float(d0) == float(S[0] > 0)
+    y0 = initial_state(sh, z, ot.prm)
+    cut = X.switches(sh.model, y0, z[sh.kf_index], 1.0, ot.prm, sh.rtol, sh.atol, sh.max_steps, segment_steps=3)
+    assert int(cut["n_switches"]) == int(n_sw)
+    np.testing.assert_allclose(cut["Ks"], Ks, rtol=0, atol=1e-9)
+
+
+def test_the_jacobian_is_the_derivative_of_the_exact_residual(smoothed):
+    """∂f/∂z from the saltation matrices against central differences of the exact residual."""
+    ot, sh = smoothed
+    z = jnp.asarray(ot.z)
+    f, J, _, _, ok = shoot(sh, z, 1.0, ot.prm)
+    assert bool(ok)
+    cols = []
+    for j in range(len(z)):
+        h = 1e-7 * max(1.0, abs(float(z[j])))
+        dz = jnp.zeros_like(z).at[j].set(h)
+        cols.append((residual(sh, z + dz, 1.0, ot.prm)[0] - residual(sh, z - dz, 1.0, ot.prm)[0]) / (2 * h))
+    J_fd = np.stack(cols, axis=1)
+    assert np.linalg.norm(J - J_fd) / np.linalg.norm(J) < 1e-4
+    # the smoothed map's Jacobian at ε_f differs by more than the differences' error
+    _, J_smooth, _, _, _ = shoot(ot.shooting, z, 1.0, ot.prm)
+    assert np.linalg.norm(J - J_smooth) / np.linalg.norm(J) > 1e-7
+
+
+def test_the_tau_column_is_the_derivative_in_the_homotopy_parameter(smoothed):
+    """∂f/∂τ of the perturbation switch (homotopy 'pert') at τ = 0.5: the field's own τ
+    dependence plus the shift of every switch."""
+    ot, sh = smoothed
+    sh_pert = dataclasses.replace(sh, model=Model("ot", "pert", True))
+    z, h = jnp.asarray(ot.z), 1e-4
+    _, _, ftau, _, _ = shoot(sh_pert, z, 0.5, ot.prm)
+    fd = (residual(sh_pert, z, 0.5 + h, ot.prm)[0] - residual(sh_pert, z, 0.5 - h, ot.prm)[0]) / (2 * h)
+    assert np.linalg.norm(ftau - fd) / np.linalg.norm(ftau) < 1e-4
+
+
+def test_newton_from_the_smoothed_root_lands_on_the_exact_extremal(smoothed):
+    """chain.to_exact: one Newton step from the ε_f root; the exact extremal's m_f and Δt lie
+    within ε_f's order of the smoothed ones, and it keeps the smoothed switch structure."""
+    ot, _ = smoothed
+    ex = chain.to_exact(ot)
+    assert ex.shooting.switching == "exact" and ex.stats["jacobian_evaluations"] <= 3
+    f, _ = residual(ex.shooting, jnp.asarray(ex.z), 1.0, ex.prm)
+    assert float(jnp.max(jnp.abs(f))) < 1e-9
+    y_s, _ = final_state(ot.shooting, jnp.asarray(ot.z), 1.0, ot.prm)
+    y_x, _ = final_state(ex.shooting, jnp.asarray(ex.z), 1.0, ex.prm)
+    assert abs(float(y_x[hm.MASS] - y_s[hm.MASS])) < 1e-6
+    assert abs(float(y_x[hm.TIME] - y_s[hm.TIME])) / float(y_s[hm.TIME]) < 1e-6
+    assert 0 < np.max(np.abs(ex.z - ot.z)) < 1e-6
+
+
+def test_the_exact_layout_is_refused_where_it_is_undefined():
+    with pytest.raises(ValueError, match="pure OT"):
+        Shooting(Model("ot", "lp"), (0, 1), switching="exact")
+    with pytest.raises(ValueError, match="pure OT"):
+        Shooting(Model("tmin", "ot"), (0, 1), switching="exact")
+    with pytest.raises(ValueError, match="single shooting"):
+        Shooting(Model("ot", "eps"), (0, 1), switching="exact", path_arcs=10)
+    with pytest.raises(ValueError, match="neither"):
+        Shooting(Model("ot", "eps"), (0, 1), switching="bang")
