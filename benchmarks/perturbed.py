@@ -359,6 +359,88 @@ def e8_chain(n_rev: float, model: str, start=None) -> tuple[dict, object]:
     return rec, ot
 
 
+def e8_exact_route(n_rev: float) -> dict:
+    """The E8 route to every model of the case at ``n_rev`` on the exact bang-bang map
+    (:mod:`spaceopt.indirect.exact_switching`), each stage timed: the unperturbed chain from the
+    zero guess to ε₁ = eps_blend only (no descent in ε), the exact unperturbed extremal by Newton
+    (``chain.to_exact``); the first perturbed model switched on by τ on the exact map
+    (``perturbed.perturb_from_unperturbed``); each later force model by the model blend on the exact map
+    (``chain.continue_in_model``, single shooting, τ); the free-time end game of the last model
+    on the exact map (the case's settings; its lift across branches needs a smoothing ε and is
+    off). Per stage: wall time, Jacobians, m_p, Δt; the route's total; the DAG's artifacts of the
+    same solves where they exist (``results/perturbed/e8``) for comparison."""
+    import dataclasses
+
+    import jax.numpy as jnp
+    from spaceopt.indirect import chain
+    from spaceopt.indirect import hamiltonians as hm
+    from spaceopt.indirect.free_time import MaximumOptions, maximise_final_mass
+    from spaceopt.indirect.shooting import final_state
+    from spaceopt.studies import perturbed as P
+
+    pc = _perturbed_config()
+    eph = P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"])
+    models = pc["cases"]["e8"]["models"]
+    label = f"bench/e8-exact/n{n_rev:g}"
+
+    def transfer(model):
+        tr = P.transfer_from_config(pc, "e8", model, ephemeris=eph, n_rev=n_rev)
+        return dataclasses.replace(tr, eps_final=tr.eps_blend, path_arcs=1)
+
+    stages, t_route = {}, time.perf_counter()
+
+    def record(name, sol, t0, jacobians):
+        yf, _ = final_state(sol.shooting, jnp.asarray(sol.z), 1.0, sol.prm)
+        u = sol.transfer.units()
+        stages[name] = {"wall_time_s": time.perf_counter() - t0, "jacobian_evaluations": jacobians,
+                        "m_p_kg": (1.0 - float(yf[hm.MASS])) * u["mass_kg"],
+                        "tof_days": float(yf[hm.TIME]) * u["time_s"] / 86400.0}
+        print(f"[{label}] {name}: {stages[name]}", file=sys.stderr, flush=True)
+
+    out = {"n_rev": n_rev, "stages": stages}
+    try:
+        t0 = time.perf_counter()
+        lp, smooth = P.solve_for(transfer(models[0]), f"{label}/{models[0]}",
+                                 path=pc["numerics"].get("homotopy_path", "arclength"))
+        record(f"{models[0]} chain to eps_blend", smooth, t0, _jacobians(lp.stats) + _jacobians(smooth.stats))
+        t0 = time.perf_counter()
+        sol = chain.to_exact(smooth, label=f"{label}/{models[0]} exact")
+        record(f"{models[0]} exact", sol, t0, _jacobians(sol.stats))
+        for i, model in enumerate(models[1:]):
+            tr, t0 = transfer(model), time.perf_counter()
+            if i == 0:
+                sol = P.perturb_from_unperturbed(sol, tr, f"{label}/{model} on", path="tau")
+            else:
+                sol = chain.continue_in_model(P.warm_start_integration(sol, tr), tr.params(thrust=sol.thrust_N),
+                                              label=f"{label}/{model}")
+                sol.transfer = tr
+            record(f"{model} exact", sol, t0, _jacobians(sol.stats))
+        settings = {**(P.tof_maximum_settings(pc, "e8") or {}), "lift_eps": 0.0}
+        t0 = time.perf_counter()
+        best, rec = maximise_final_mass(sol, MaximumOptions(label=f"{label} end game", **settings))
+        record(f"{models[-1]} end game", best, t0, rec.get("jacobian_evaluations"))
+        out.update(converged=True, end_game_certified=rec.get("certified"), end_game_status=rec.get("status"))
+    except Exception as exc:                                   # noqa: BLE001 — report, go on
+        out.update(converged=False, error=f"{type(exc).__name__}: {exc}")
+    out["route_wall_time_s"] = time.perf_counter() - t_route
+    out["route_jacobian_evaluations"] = sum(r["jacobian_evaluations"] or 0 for r in stages.values())
+    out["dag_artifacts"] = _dag_e8(n_rev, models)
+    return out
+
+
+def _dag_e8(n_rev: float, models) -> dict:
+    """m_p, Δt and wall time of the DAG's E8 artifacts at ``n_rev`` that exist (for comparison)."""
+    from spaceopt import artifacts
+    out = {}
+    for model in models:
+        p = ROOT / "results" / "perturbed" / "e8" / f"{model}_n{n_rev:g}.json"
+        if p.exists():
+            d = artifacts.read_json(p)
+            out[model] = {"m_p_kg": d["units"]["mass_kg"] - d["scalars"]["m_f_kg"], "tof_days": d["scalars"]["tof_days"],
+                          "wall_time_s": d["provenance"].get("wall_time_s")}
+    return out
+
+
 def _jacobians(stats: dict) -> int:
     return int(stats.get("jacobian_evaluations") or 0)
 
@@ -410,6 +492,8 @@ def main(argv=None):
     ap.add_argument("--out", default=str(ROOT / "results/benchmarks/perturbed.json"))
     ap.add_argument("--skip-propagation", action="store_true")
     ap.add_argument("--skip-e8", action="store_true")
+    ap.add_argument("--exact-route", type=float, nargs="*", default=[],
+                    help="revolution counts of the E8 route on the exact bang-bang map (e8_exact_route)")
     ap.add_argument("--profile", action="store_true", help="field cost per force model (kernels, us/eval)")
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
@@ -417,7 +501,7 @@ def main(argv=None):
         return _worker(a.revs)
     out_path = Path(a.out)
     report = json.loads(out_path.read_text()) if out_path.exists() else {}
-    report = {k: v for k, v in report.items() if k in ("propagation", "e8", "field_profile")}
+    report = {k: v for k, v in report.items() if k in ("propagation", "e8", "field_profile", "e8_exact_route")}
     report["machine"] = {"cpu_count": os.cpu_count(), "load_avg_start": os.getloadavg()}
     report["measured"] = measured(Path(a.results))
     report["target_s"] = TARGET_S
@@ -446,6 +530,9 @@ def main(argv=None):
                 report["e8_500rev_chain_s"] = e8_estimates(report["e8"])
                 report["e8_published_500"] = published_500()
                 write()
+    for n in a.exact_route:
+        report.setdefault("e8_exact_route", {})[f"n{n:g}"] = e8_exact_route(n)
+        write()
     write()
     print(json.dumps(report, indent=2), file=sys.stderr)
 

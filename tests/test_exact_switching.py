@@ -111,3 +111,18 @@ def test_the_exact_layout_is_refused_where_it_is_undefined():
         Shooting(Model("ot", "eps"), (0, 1), switching="exact", path_arcs=10)
     with pytest.raises(ValueError, match="neither"):
         Shooting(Model("ot", "eps"), (0, 1), switching="bang")
+
+
+def test_perturbations_switched_on_on_the_exact_map(smoothed):
+    """studies.perturbed.perturb_from_unperturbed from an exact unperturbed extremal: J2 switched
+    on by τ on the exact map lands on the exact J2 extremal that Newton reaches from the smoothed
+    J2 one."""
+    from spaceopt.studies import perturbed as P
+    ot, _ = smoothed
+    tr_u = dataclasses.replace(TR, perturbations=None, epoch_utc=None)
+    unperturbed = chain.to_exact(chain.solve_ot(chain.solve_lp(tr_u), 15.0))
+    j2 = P.perturb_from_unperturbed(unperturbed, TR, "j2 on", path="tau")
+    assert j2.shooting.switching == "exact" and j2.shooting.model.perturbed
+    np.testing.assert_allclose(j2.z, chain.to_exact(ot).z, rtol=0, atol=1e-8)
+    with pytest.raises(Exception, match="no smoothing eps"):
+        P.perturb_from_unperturbed(unperturbed, TR, "j2 on", eps_smooth=1e-2)

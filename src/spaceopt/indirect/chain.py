@@ -371,8 +371,10 @@ def to_exact(sol: Solution, options=None, label="exact") -> Solution:
         model = Model("ot", "eps", model.perturbed)
     sh = dataclasses.replace(sol.shooting, model=model, switching="exact", path_arcs=1)
     z, stats = _newton_at_end(sh, np.asarray(sol.z, float), sol.prm, label, options)
-    return Solution("ot", sh, z, dict(sol.prm), sol.transfer, {**stats, "switching": "exact"},
-                    thrust_N=sol.thrust_N, extra=dict(sol.extra))
+    # ε = 0 in its data: the map ignores it, and δ(S, 0) = 1[S > 0] where the smoothed throttle
+    # is read (the dense samples)
+    return Solution("ot", sh, z, {**sol.prm, "eps_final": jnp.asarray(0.0)}, sol.transfer,
+                    {**stats, "switching": "exact"}, thrust_N=sol.thrust_N, extra=dict(sol.extra))
 
 
 def through_smoothing(sol: Solution, eps_smooth: float, step, options=None, label="param") -> Solution:

@@ -410,15 +410,20 @@ def perturb_from_unperturbed(sol: Solution, tr_to: Transfer, label: str, path: s
     (:func:`chain.through_smoothing`; case option ``perturb_at_eps``), for transfers with
     many burn arcs, where the switch at ε_f stalls (E7: τ = 0.3728 after 42 Jacobians; at
     ε = 10⁻² its path meets a near branch point at τ ≈ 0.611, at 3·10⁻² it runs clean).
-    ``options``: continuation options of every stage (default: the path's own).
+    ``options``: continuation options of every stage (default: the path's own). An exact
+    bang-bang solution (``chain.to_exact``) has its perturbations switched on on the exact map
+    (E8 200 rev, J2: 11 Jacobians, the extremal of the smoothed route's to 1e-10).
     """
-    sh_p = chain.shooting_for("ot", "eps", tr_to)
-    sh_pert = perturbation_switch(tr_to)
+    exact = sol.shooting.switching == "exact"
+    if exact and eps_smooth is not None:
+        raise ConfigError("perturb_at_eps", eps_smooth, "the exact bang-bang map has no smoothing eps")
+    sh_p = dataclasses.replace(chain.shooting_for("ot", "eps", tr_to), switching=sol.shooting.switching)
+    sh_pert = dataclasses.replace(perturbation_switch(tr_to), switching=sol.shooting.switching)
     names_u = sol.shooting.unknown_names()
 
     def switch_on(unp: Solution) -> Solution:
         z = np.asarray([0.0 if n == "p_t" else float(unp.z[names_u.index(n)]) for n in sh_p.unknown_names()])
-        prm = tr_to.params(thrust=sol.thrust_N)
+        prm = {**tr_to.params(thrust=sol.thrust_N), **({"eps_final": unp.prm["eps_final"]} if exact else {})}
         if eps_smooth is not None:
             prm["eps_final"] = unp.prm["eps_final"]              # = eps_smooth (through_smoothing)
         z, stats = chain._run(sh_pert, z, prm, label, options, path=path)
