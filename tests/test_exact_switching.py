@@ -126,3 +126,22 @@ def test_perturbations_switched_on_on_the_exact_map(smoothed):
     np.testing.assert_allclose(j2.z, chain.to_exact(ot).z, rtol=0, atol=1e-8)
     with pytest.raises(Exception, match="no smoothing eps"):
         P.perturb_from_unperturbed(unperturbed, TR, "j2 on", eps_smooth=1e-2)
+
+
+def test_an_exact_solution_is_sampled_saved_and_read_back(smoothed, tmp_path):
+    """The dense trajectory of an exact solution steps to its switches (its last sample is the
+    shooting map's y(K_f)), its throttle samples are 0 or 1, and its artifact reads back as the
+    exact problem."""
+    ot, _ = smoothed
+    ex = chain.to_exact(ot)
+    _, ys = chain.dense(ex, samples_per_rev=50)
+    yf, _ = final_state(ex.shooting, jnp.asarray(ex.z), 1.0, ex.prm)
+    assert np.max(np.abs(ys[-1] - np.asarray(yf))) < 1e-8
+    path = tmp_path / "exact.json"
+    multirev.save(ex, path, {}, 1.0, samples_per_rev=50)
+    delta = np.load(path.with_suffix(".npz"))["delta"]
+    assert set(np.unique(delta)) == {0.0, 1.0}
+    back = multirev.load(path)
+    assert back.shooting.switching == "exact" and float(back.prm["eps_final"]) == 0.0
+    f, ok = residual(back.shooting, jnp.asarray(back.z), 1.0, back.prm)
+    assert bool(ok) and float(jnp.max(jnp.abs(f))) < 1e-9

@@ -29,7 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ConvergenceError
-from . import hamiltonians as hm
+from . import exact_switching, hamiltonians as hm
 from .continuation import (POLISH_FAILED, STEP_SIZES, ArclengthContinuation, ArclengthOptions,
                            Continuation, ContinuationOptions, failure_statistics)
 from .flow import Model, field as flow_field
@@ -420,9 +420,12 @@ def final_model(sol: Solution) -> Model:
 
 def dense(sol: Solution, samples_per_rev: int = 200):
     """Trajectory y(K) at the solution's τ (1: its problem) on a uniform K grid: returns K [rad]
-    and y (N × 2n)."""
-    y0 = initial_state(sol.shooting, jnp.asarray(sol.z), sol.prm)
+    and y (N × 2n); an exact bang-bang solution's by :func:`.exact_switching.dense`."""
     n = max(int(samples_per_rev * sol.transfer.n_rev), 200)
+    if sol.shooting.switching == "exact":
+        Ks, ys = exact_switching.dense(sol.shooting, jnp.asarray(sol.z), sol.tau, sol.prm, n, sol.shooting.max_steps)
+        return np.asarray(Ks), np.asarray(ys)
+    y0 = initial_state(sol.shooting, jnp.asarray(sol.z), sol.prm)
     Ks, ys = _dense(final_model(sol), y0, sol.K_f, sol.prm, n, sol.shooting.max_steps, sol.tau)
     return np.asarray(Ks), np.asarray(ys)
 

@@ -261,3 +261,25 @@ def switch_points(sh, z, tau, prm, rtol, atol):
     y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
     p1 = switches(sh.model, y0, z[sh.kf_index], tau, prm, rtol, atol, sh.max_steps)
     return p1["d0"], p1["Ks"], p1["n_switches"], p1["status"]
+
+
+@partial(jax.jit, static_argnums=(0, 4, 5))
+def dense(sh, z, tau, prm, n, max_steps, rtol=1e-12, atol=1e-13):
+    """y(K) of the exact map's trajectory on ``n`` uniform K samples in [0, K_f]: (K, y).
+
+    The switches of pass 1 (at the shooting tolerances) fix δ on each arc; one integration over
+    [0, K_f] then reads δ by the switch count below K and steps exactly to every switch
+    (diffrax ``jump_ts``), so no step straddles a discontinuity of the field."""
+    kf = sh.kf_index
+    y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
+    p1 = switches(sh.model, y0, z[kf], tau, prm, sh.rtol, sh.atol, sh.max_steps)
+    Ks = jnp.linspace(0.0, z[kf], n)
+
+    def rhs(K, y, _):
+        odd = jnp.searchsorted(p1["Ks"], K, side="right") % 2 == 1
+        return field(sh.model, K, y, tau, prm, delta=jnp.where(odd, 1.0 - p1["d0"], p1["d0"]))
+
+    controller = diffrax.ClipStepSizeController(diffrax.PIDController(rtol=rtol, atol=atol), jump_ts=p1["Ks"])
+    out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, z[kf], None, y0,
+                              stepsize_controller=controller, saveat=diffrax.SaveAt(ts=Ks), max_steps=max_steps)
+    return Ks, out.ys

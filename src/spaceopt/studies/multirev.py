@@ -11,6 +11,7 @@ import math
 import time
 from pathlib import Path
 
+import jax.numpy as jnp
 import numpy as np
 
 from .. import artifacts
@@ -140,7 +141,7 @@ def save(sol: Solution, json_path, cfg: dict, wall_time_s: float, extra: dict | 
         "z": np.asarray(sol.z).tolist(), "unknowns": sol.shooting.unknown_names(),
         "model": {"kind": sol.shooting.model.kind, "homotopy": sol.shooting.model.homotopy,
                   "perturbed": sol.shooting.model.perturbed, "fixed_time": sol.shooting.fixed_time,
-                  "free_costates": list(sol.shooting.free_costates),
+                  "free_costates": list(sol.shooting.free_costates), "switching": sol.shooting.switching,
                   **({} if sol.tau == 1.0 else {"tau": sol.tau, "thrust_pinned_N": float(sol.prm["thrust"]) * sol.transfer.force_unit})},
         "transfer": sol.transfer.as_dict(), "thrust_N": sol.thrust_N, "units": sol.transfer.units(),
         "provenance": artifacts.provenance(cfg, wall_time_s),
@@ -156,11 +157,15 @@ def load(json_path) -> Solution:
     tr = Transfer(Orbit(**t["initial"]), Orbit(**t["final"]),
                   **{k: v for k, v in t.items() if k not in ("initial", "final")})
     m = data["model"]
+    exact = m.get("switching", "smoothed") == "exact"
     sh = Shooting(Model(m["kind"], m["homotopy"], m.get("perturbed", False)), tuple(m["free_costates"]),
-                  fixed_time=m.get("fixed_time", False), **tr.integration())
+                  fixed_time=m.get("fixed_time", False), switching=m.get("switching", "smoothed"),
+                  **{**tr.integration(), **({"path_arcs": 1} if exact else {})})
     thrust = data["thrust_N"]
     pinned = m.get("thrust_pinned_N", thrust)          # a point of a homotopy at τ < 1 (model 'tau')
     prm = tr.params(thrust=None if pinned is None or (isinstance(pinned, float) and math.isnan(pinned)) else pinned)
+    if exact:                                           # as chain.to_exact leaves it
+        prm["eps_final"] = jnp.asarray(0.0)
     sol = Solution(data["scalars"]["stage"], sh, np.asarray(data["z"]), prm, tr, data["solver"],
                    thrust_N=thrust if thrust is not None else float("nan"), tau=m.get("tau", 1.0))
     if sol.tau != 1.0:           # an upper bound on T_min: its route's data (tmin_from_ot.bound_in_model)
