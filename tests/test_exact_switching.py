@@ -113,10 +113,10 @@ def test_the_exact_layout_is_refused_where_it_is_undefined():
         Shooting(Model("ot", "eps"), (0, 1), switching="bang")
 
 
-def test_perturbations_switched_on_on_the_exact_map(smoothed):
+def test_perturbations_switched_on_and_changed_on_the_exact_map(smoothed):
     """studies.perturbed.perturb_from_unperturbed from an exact unperturbed extremal: J2 switched
     on by τ on the exact map lands on the exact J2 extremal that Newton reaches from the smoothed
-    J2 one."""
+    J2 one; chain.continue_in_model then moves it to 4×4 on the exact map."""
     from spaceopt.studies import perturbed as P
     ot, _ = smoothed
     tr_u = dataclasses.replace(TR, perturbations=None, epoch_utc=None)
@@ -126,6 +126,12 @@ def test_perturbations_switched_on_on_the_exact_map(smoothed):
     np.testing.assert_allclose(j2.z, chain.to_exact(ot).z, rtol=0, atol=1e-8)
     with pytest.raises(Exception, match="no smoothing eps"):
         P.perturb_from_unperturbed(unperturbed, TR, "j2 on", eps_smooth=1e-2)
+    # the force model changed on the exact map (the data's smoothing eps is no datum of it)
+    tr44 = dataclasses.replace(TR, perturbations={"geopotential": {"degree": 4, "order": 4}})
+    g44 = chain.continue_in_model(j2, tr44.params(thrust=15.0))
+    assert g44.shooting.switching == "exact" and float(g44.prm["eps_final"]) == 0.0
+    f, ok = residual(g44.shooting, jnp.asarray(g44.z), 1.0, g44.prm)
+    assert bool(ok) and float(jnp.max(jnp.abs(f))) < 1e-9 and np.max(np.abs(g44.z - j2.z)) > 1e-9
 
 
 def test_an_exact_solution_is_sampled_saved_and_read_back(smoothed, tmp_path):

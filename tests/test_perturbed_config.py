@@ -506,6 +506,32 @@ def test_perturb_at_eps_is_read_and_checked():
 
 
 
+def test_switching_is_read_and_refuses_the_options_of_the_smoothed_route():
+    """Case option switching (smoothed | exact): exact refuses a smoothing eps, multiple shooting
+    and, for E8, counts moved from the previous one; one-line errors naming the key."""
+    assert P.case_switching(PC, "e9") == PC["cases"]["e9"].get("switching", "smoothed")
+    ok = copy.deepcopy(PC)
+    for key in ("perturb_at_eps", "model_step_at_eps", "path_arcs", "model_step"):
+        ok["cases"]["e8"].pop(key, None)
+    ok["cases"]["e8"]["switching"] = "exact"
+    assert P.case_switching(ok, "e8") == "exact"
+    assert P.e8_smoothing(ok)["switching"] == "exact"
+    text = R.e8_route_text("chain", P.e8_smoothing(ok), [])
+    assert "exact bang-bang problem" in text and f"varepsilon={R.latex_number(1e-2)}" in text
+    cases = [("switching", "bang", r"perturbed\.cases\.e8\.switching"),
+             ("perturb_at_eps", 1e-2, r"perturbed\.cases\.e8\.perturb_at_eps"),
+             ("path_arcs", {"g44_moon_sun": 10}, r"perturbed\.cases\.e8\.path_arcs")]
+    for key, value, match in cases:
+        bad = copy.deepcopy(ok)
+        bad["cases"]["e8"][key] = value
+        with pytest.raises(ConfigError, match=match):
+            P.case_switching(bad, "e8")
+    bad = copy.deepcopy(ok)
+    bad["e8"]["count_start"] = "previous"
+    with pytest.raises(ConfigError, match=r"perturbed\.e8\.count_start"):
+        P.case_switching(bad, "e8")
+
+
 def test_warm_start_options_follow_the_case_step_growth():
     assert P.warm_start_options(PC, "e9") is None
     pc = copy.deepcopy(PC)

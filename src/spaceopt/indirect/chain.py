@@ -249,12 +249,13 @@ def existence_verdict(tmin: Solution, thrust_N: float) -> dict:
 
 
 def solve_ot(lp: Solution, thrust_N: float, options=None, label="ot", blend_ref: float | None = None,
-             path: str = "tau") -> Solution:
+             path: str = "tau", switching: str = "smoothed") -> Solution:
     """LP → OT homotopy (3.3.1) at thrust T, then ε log-uniform from ε₁ to ε_f (in τ).
 
     ``blend_ref``: W_ref of the blend weights (default :func:`blend_reference`; 1 gives the
     printed (3.3.1) weights). ``path``: how the LP → OT path is followed, 'tau' or 'arclength'
-    (through turning points in τ).
+    (through turning points in τ). ``switching`` 'exact': no descent in ε; the exact bang-bang
+    extremal by Newton from the ε₁ one (:func:`to_exact`).
     """
     tr = lp.transfer
     bref = blend_reference(lp) if blend_ref is None else float(blend_ref)
@@ -262,13 +263,24 @@ def solve_ot(lp: Solution, thrust_N: float, options=None, label="ot", blend_ref:
     sh = shooting_for("ot", "lp", tr)
     z, stats = _run(sh, start_vector(sh, lp.doubled_costates(), lp.K_f), prm, label + " LP->OT", options, path)
     sh_eps = shooting_for("ot", "eps", tr)
+    if switching == "exact":
+        return _exact_from_blend(Solution("ot", sh_eps, z, prm, tr, stats, thrust_N=thrust_N), "lp_to_ot",
+                                 options, label)
     if tr.eps_blend > tr.eps_final:
         z, stats_eps = _run(sh_eps, z, prm, label + " eps", options)
         stats = _merge_stats({"lp_to_ot": stats, "eps": stats_eps})
     return Solution("ot", sh_eps, z, tr.params(thrust=thrust_N), tr, stats, thrust_N=thrust_N)
 
 
-def solve_ot_from_tmin(tmin: Solution, thrust_N: float, options=None, label="ot", path: str = "tau") -> Solution:
+def _exact_from_blend(at_blend: Solution, stage: str, options, label) -> Solution:
+    """The exact extremal from the OT solution at ε₁ that the homotopy ``stage`` reached."""
+    exact = to_exact(at_blend, options, label + " exact")
+    exact.stats = {**_merge_stats({stage: at_blend.stats, "exact": exact.stats}), "switching": "exact"}
+    return exact
+
+
+def solve_ot_from_tmin(tmin: Solution, thrust_N: float, options=None, label="ot", path: str = "tau",
+                       switching: str = "smoothed") -> Solution:
     """T_min → OT at thrust T ≥ T_min (route LP → T_min → OT; no LP → OT blend), then ε to ε_f.
 
     Homotopy (flow.Model('tmin', 'ot')): the T_min problem with the propellant weight of the OT
@@ -277,7 +289,8 @@ def solve_ot_from_tmin(tmin: Solution, thrust_N: float, options=None, label="ot"
     τ = 0: the converged T_min solution, so the path starts on it) to T = T_OT (τ = 1: OT at
     ε₁). The OT costates at T ↓ T_min grow without bound (the OT problem degenerates to the
     single always-on transfer, with zero propellant weight), which is why the path starts from the
-    T_min problem rather than from an OT problem at T_min. Then ε log-uniform from ε₁ to ε_f.
+    T_min problem rather than from an OT problem at T_min. Then ε log-uniform from ε₁ to ε_f, or
+    (``switching`` 'exact') the exact extremal by Newton from ε₁ (:func:`to_exact`).
     """
     tr = tmin.transfer
     prm = tr.params(thrust=thrust_N)
@@ -285,6 +298,11 @@ def solve_ot_from_tmin(tmin: Solution, thrust_N: float, options=None, label="ot"
     z, stats = _run(sh, np.asarray(tmin.z, float), prm, label + " Tmin->OT", options, path)
     sh_eps = shooting_for("ot", "eps", tr)
     z = z[:sh_eps.size]                                  # drop T (= T_OT at τ = 1)
+    if switching == "exact":
+        exact = _exact_from_blend(Solution("ot", sh_eps, z, prm, tr, stats, thrust_N=thrust_N), "tmin_to_ot",
+                                  options, label)
+        exact.stats["route"] = "lp-tmin-ot"
+        return exact
     if tr.eps_blend > tr.eps_final:
         z, stats_eps = _run(sh_eps, z, prm, label + " eps", options)
         stats = _merge_stats({"tmin_to_ot": stats, "eps": stats_eps})
@@ -296,6 +314,11 @@ def solve_ot_from_tmin(tmin: Solution, thrust_N: float, options=None, label="ot"
 PATH_DATA = ("thrust", "L0", "Lf", "c", "epoch_offset_s")
 
 
+def _on_map_of(sol: Solution, prm_to: dict) -> dict:
+    """``prm_to`` for a path from ``sol``: an exact bang-bang solution keeps ε = 0 (the map has none)."""
+    return {**prm_to, "eps_final": sol.prm["eps_final"]} if sol.shooting.switching == "exact" else prm_to
+
+
 def continue_in_params(sol: Solution, prm_to: dict, options=None, label="param", path: str = "tau") -> Solution:
     """From a converged solution to the same problem with other data (thrust, L0, L_f, …).
 
@@ -303,6 +326,7 @@ def continue_in_params(sol: Solution, prm_to: dict, options=None, label="param",
     solution's are moved linearly in τ (thrust, L0, L_f, c, and the departure-epoch offset of a
     perturbed problem when both carry one), everything else stays (``path``: 'tau' or 'arclength').
     """
+    prm_to = _on_map_of(sol, prm_to)
     keys = [k for k in PATH_DATA
             if k in sol.prm and k in prm_to and not np.isclose(sol.prm[k], prm_to[k], rtol=0, atol=0)]
     frm = {k: sol.prm[k] for k in keys}
@@ -324,6 +348,7 @@ def continue_in_model(sol: Solution, prm_to: dict, options=None, label="model", 
     E8 at 300 revolutions, 4×4 → 4×4 + Moon + Sun at ε_f, the Newton homotopy folds at τ ≈ 0.35
     (113 Jacobians, docs/perturbed-e6-e7-e8.md); the blend of the Moon and Sun terms converges in 13.
     """
+    prm_to = _on_map_of(sol, prm_to)
     moved = [k for k in (*PATH_DATA, "eps_final")
              if (k in sol.prm or k in prm_to) and not np.isclose(sol.prm.get(k, 0.0), prm_to.get(k, 0.0), rtol=0, atol=0)]
     if moved or sol.stage != "ot" or not sol.shooting.model.perturbed:

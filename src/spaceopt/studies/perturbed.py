@@ -56,7 +56,8 @@ CASE_KEYS = ("initial", "final", "L0_deg", "n_rev", "m0_kg", "isp_s", "thrust_N"
              "ephemeris", "models")
 OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref", "route", "model_start", "fallback",
                       "perturb_at_eps", "model_step_at_eps", "path_rtol", "path_arcs", "warm_step_growth",
-                      "model_step", "tof_maximum")
+                      "model_step", "tof_maximum", "switching")
+SWITCHINGS = ("smoothed", "exact")
 MODEL_STEP_PATHS = ("tau", "arclength")
 
 
@@ -183,7 +184,7 @@ ROUTES = ("lp-ot", "lp-tmin-ot")
 
 def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False, path: str = "arclength",
               options: ContinuationOptions | None = None, blend_ref: float | None = None,
-              route: str = "lp-ot") -> tuple[Solution, Solution]:
+              route: str = "lp-ot", switching: str = "smoothed") -> tuple[Solution, Solution]:
     """The chain from the zero guess → OT (perturbed when ``tr`` is); returns (lp, ot).
 
     ``route``: 'lp-ot' — LP → OT by the blend (3.3.1) (``chain.solve_ot``); 'lp-tmin-ot' — LP →
@@ -193,6 +194,8 @@ def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False, path: str = 
     ``path``: how the homotopies are followed, 'tau' or 'arclength' (passes turning points).
     ``lp_perturbed``: solve the LP with the perturbations on (``chain.solve_lp(perturbed=True)``).
     ``blend_ref``: W_ref of the (3.3.1) blend weights (None: the mean LP primer).
+    ``switching`` 'exact' (case option ``switching``, :func:`case_switching`): the OT extremal of
+    the exact bang-bang map, by Newton from ε₁ (``chain.to_exact``), instead of the descent to ε_f.
     """
     if path not in chain.PATHS:
         raise ConfigError("perturbed.numerics.homotopy_path", path, f"expected one of {sorted(chain.PATHS)}")
@@ -200,13 +203,14 @@ def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False, path: str = 
         raise ConfigError("perturbed.cases.route", route, f"expected one of {', '.join(ROUTES)}")
     lp = chain.solve_lp(tr, options, label=f"{label}/lp", perturbed=lp_perturbed and tr.perturbed)
     if route == "lp-ot":
-        ot = chain.solve_ot(lp, tr.thrust, options, label=f"{label}/ot", blend_ref=blend_ref, path=path)
+        ot = chain.solve_ot(lp, tr.thrust, options, label=f"{label}/ot", blend_ref=blend_ref, path=path,
+                            switching=switching)
         return lp, ot
     tm = chain.solve_tmin(lp, options, label=f"{label}/tmin")
     verdict = chain.existence_verdict(tm, tr.thrust)
     if not verdict["exists"]:
         raise ConvergenceError(f"{label}: {verdict['message']}", {"reason": "T < T_min", **verdict})
-    ot = chain.solve_ot_from_tmin(tm, tr.thrust, options, label=f"{label}/ot", path=path)
+    ot = chain.solve_ot_from_tmin(tm, tr.thrust, options, label=f"{label}/ot", path=path, switching=switching)
     ot.extra["tmin"] = {"T_min_N": tm.thrust_N, "T0_guess_N": tm.extra.get("T0_N"), "z": tm.z.tolist(),
                         "K_f_deg": math.degrees(tm.K_f), "solver": tm.stats, "verdict": verdict["message"]}
     return lp, ot
@@ -307,6 +311,29 @@ def perturb_at_eps(pc: dict, case: str, key: str = "perturb_at_eps") -> float | 
     if not pc["numerics"]["eps_final"] < val <= 1.0:
         raise ConfigError(f"perturbed.cases.{case}.{key}", eps, "must lie in (eps_final, 1]")
     return val
+
+
+def case_switching(pc: dict, case: str) -> str:
+    """Case option ``switching``: 'smoothed' (the default), the smoothed throttle (3.3.2) down to
+    ε_f, or 'exact', the exact bang-bang map (:mod:`spaceopt.indirect.exact_switching`): the chain
+    stops its ε descent at ε₁ and Newton takes it to ε = 0, and every later solve of the case stays
+    on the exact map (its warm starts read the switching from their start). The options of the
+    smoothed route that need a smoothing ε or multiple shooting are refused with it."""
+    cc, path = pc["cases"][case], f"perturbed.cases.{case}"
+    value = cc.get("switching", "smoothed")
+    if value not in SWITCHINGS:
+        raise ConfigError(f"{path}.switching", value, f"expected one of {', '.join(SWITCHINGS)}")
+    if value == "exact":
+        for key in ("perturb_at_eps", "model_step_at_eps"):
+            if cc.get(key) is not None:
+                raise ConfigError(f"{path}.{key}", cc[key], "the exact bang-bang map (switching: exact) has no smoothing eps")
+        arcs = cc.get("path_arcs")
+        if arcs is not None and any(v > 1 for v in (arcs.values() if isinstance(arcs, dict) else [arcs])):
+            raise ConfigError(f"{path}.path_arcs", arcs, "the exact bang-bang map (switching: exact) is single shooting")
+        if case == "e8" and e8_count_start(pc) != "chain":
+            raise ConfigError("perturbed.e8.count_start", e8_count_start(pc),
+                              "a count moved from the previous one needs the smoothing eps (switching: exact)")
+    return value
 
 
 STEP_SETTINGS = ("step_growth", "accepted_update", "step_rcond", "flat_step", "end_overshoot", "h_max")
@@ -618,9 +645,10 @@ def e8_count_start(pc: dict) -> str:
 def e8_smoothing(pc: dict) -> dict:
     """The smoothing ε values the E8 route uses, for the report text: ``eps_final``, ``eps_blend``
     (where a count moved from the previous one is moved), ``perturb_at_eps`` (J2 switched on) and
-    ``model_step_at_eps`` (the force model changed), the last two ε_f where the case leaves them out."""
+    ``model_step_at_eps`` (the force model changed), the last two ε_f where the case leaves them out;
+    ``switching`` (:func:`case_switching`): 'exact' where the route runs on the exact bang-bang map."""
     eps_f = float(pc["numerics"]["eps_final"])
-    return {"eps_final": eps_f, "eps_blend": float(pc["numerics"]["eps_blend"]),
+    return {"eps_final": eps_f, "eps_blend": float(pc["numerics"]["eps_blend"]), "switching": case_switching(pc, "e8"),
             **{key: eps if eps is not None else eps_f
                for key, eps in (("perturb_at_eps", perturb_at_eps(pc, "e8")),
                                 ("model_step_at_eps", perturb_at_eps(pc, "e8", "model_step_at_eps")))}}

@@ -429,7 +429,14 @@ def e8_route_text(count_start: str, smoothing: dict, steps: list) -> str:
     """The sentences on how the E8 counts and models start (``count_start``: the config's
     perturbed.e8.count_start; ``smoothing``: :func:`perturbed.e8_smoothing`, the ε values;
     ``steps``: :func:`perturbed.e8_model_steps`, the force-model steps after $J_2$)."""
-    eps = {k: latex_number(v) for k, v in smoothing.items()}
+    eps = {k: latex_number(v) for k, v in smoothing.items() if k != "switching"}
+    if smoothing.get("switching") == "exact":
+        return ("Each revolution count of the GTO$\\to$GEO series is a chain of its own from the zero guess, "
+                f"which stops its smoothing at $\\varepsilon={eps['eps_blend']}$: Newton takes that extremal to "
+                "the exact bang-bang problem ($\\varepsilon=0$, the switches located on the trajectory and the "
+                "Jacobian carried across them by saltation matrices), on which every later solve of the series "
+                "stays: $J_2$ is switched on by $\\tau$, then the force model changed by blending the perturbing "
+                "accelerations, by single shooting. ")
 
     def at(key):
         return r"$\varepsilon_f$" if smoothing[key] == smoothing["eps_final"] else f"$\\varepsilon={eps[key]}$"
