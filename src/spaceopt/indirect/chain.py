@@ -117,12 +117,20 @@ def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None, path
     over that many arcs (:mod:`.multiple_shooting`), the end point polished by single shooting."""
     if sh.path_arcs > 1:
         return _run_multiple(sh, z0, prm, label, options, path, sh.path_arcs)
-    opt = path_options(path, options, label)
+    opt = _polish_floor(sh, path_options(path, options, label))
     rtol, atol = _path_tolerances(sh)
     cont = PATHS[path](lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm, rtol, atol), opt,
                        polish=lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm),
                        residual=lambda z, tau: residual(sh, jnp.asarray(z), tau, prm))
     return _follow(cont, z0, path)
+
+
+def _polish_floor(sh: Shooting, opt: ContinuationOptions) -> ContinuationOptions:
+    """The follower options of ``sh``: on the exact map the final polish stops at its noise floor
+    (:data:`.exact_switching.TOL_FINAL`), not below it."""
+    if sh.switching != "exact" or opt.tol_final >= exact_switching.TOL_FINAL:
+        return opt
+    return dataclasses.replace(opt, tol_final=exact_switching.TOL_FINAL)
 
 
 def _path_tolerances(sh: Shooting):
@@ -171,7 +179,7 @@ def _newton_at_end(sh: Shooting, z0, prm, label, options):
     single = lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm)  # noqa: E731
     # a polish distinct from the path's map: the follower then re-evaluates f at τ = 1 instead of
     # taking its Newton homotopy's F = f − b, which is 0 where it starts
-    polish = Continuation(single, path_options("tau", options, label), polish=lambda z, tau: single(z, tau),
+    polish = Continuation(single, _polish_floor(sh, path_options("tau", options, label)), polish=lambda z, tau: single(z, tau),
                           residual=lambda z, tau: residual(sh, jnp.asarray(z), tau, prm))
     return _follow(polish, z0, "tau", tau0=1.0)
 

@@ -56,6 +56,10 @@ S_NOISE = 1e-10           # |S| of the integration error at a switch (S is of or
 MAX_SWITCHES = 8192       # capacity of the switch list (E8 500: 1 043)
 BISECTIONS = 60           # halvings of the bracketing sample interval (≤ 0.05 rad → 4e-20 rad)
 RESTEP_STEPS = 64
+# |f| where Newton on the exact map stops improving: the integration error summed over a thousand
+# arcs (E8 500 rev, end-point tolerances: 1e-10 … 2e-10 after 12 polish iterations, the 4×4
+# blend; 7.7e-11 in the spike); the followers' final polish stops here (chain._polish_floor)
+TOL_FINAL = 1e-9
 
 RUNNING, DONE, NO_CROSSING, TOO_MANY_SWITCHES, STEP_LIMIT, INTEGRATION_FAILED = range(6)
 STATUS = ("running", "done", "event without a crossing", "switch list full", "step limit reached",
