@@ -45,7 +45,10 @@ Subcommands (run from the project root, results/ holding the E8 artifacts):
                             saved solution (.json)
     -v (anywhere)           prints the corrector's residual by row at every iteration (family, rescue)
 
-Not wired into the pipeline: see docs/perturbed-e6-e7-e8.md, "Thirtieth session".
+The thirtieth session's measurements (docs/perturbed-e6-e7-e8.md, "Thirtieth session") were made
+with this spike's own map. The library's version, compiled in one loop per pass, with the τ
+column and the event threshold set per arc, is :mod:`spaceopt.indirect.exact_switching`
+(thirty-sixth session), and the E8 route on it is ``benchmarks/perturbed.py --exact-route``.
 """
 from __future__ import annotations
 
