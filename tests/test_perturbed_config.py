@@ -1270,3 +1270,17 @@ def test_a_model_carries_over_another_models_bound_only_where_both_are_checked_f
     bad["existence"]["skip"] = {"e7": ["j2"]}                      # the source left out of the check
     with pytest.raises(ConfigError, match=r"bound_from.e7.g44_moon_sun='j2'"):
         P.existence_bound_from(bad)
+
+
+def test_the_exact_e8_profile_validates_and_selects_the_exact_route():
+    """config/e8_exact.yaml over the study config (as --configfile merges it): schema-valid, E8 on
+    the exact map, its model steps single shooting in τ, no smoothing ε for the warm starts."""
+    import jsonschema
+    over = yaml.safe_load((ROOT / "config/e8_exact.yaml").read_text())["perturbed"]["cases"]["e8"]
+    pc = copy.deepcopy(PC)
+    pc["cases"]["e8"].update(over)
+    jsonschema.validate(pc, yaml.safe_load((ROOT / "config/schema/perturbed.schema.yaml").read_text()))
+    assert P.case_switching(pc, "e8") == "exact"
+    assert all(step["arcs"] == 1 and step["path"] == "tau" for step in P.e8_model_steps(pc))
+    kw = P.warm_start_kwargs(pc, "e8", "g44_moon_sun", n_rev=500)
+    assert kw["eps_smooth"] is None and kw["model_step_eps"] is None
