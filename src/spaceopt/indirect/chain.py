@@ -179,7 +179,8 @@ def _newton_at_end(sh: Shooting, z0, prm, label, options):
     single = lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm)  # noqa: E731
     # a polish distinct from the path's map: the follower then re-evaluates f at τ = 1 instead of
     # taking its Newton homotopy's F = f − b, which is 0 where it starts
-    polish = Continuation(single, _polish_floor(sh, path_options("tau", options, label)), polish=lambda z, tau: single(z, tau),
+    polish = Continuation(single, _polish_floor(sh, path_options("tau", options, label)),
+                          polish=lambda z, tau: single(z, tau),
                           residual=lambda z, tau: residual(sh, jnp.asarray(z), tau, prm))
     return _follow(polish, z0, "tau", tau0=1.0)
 

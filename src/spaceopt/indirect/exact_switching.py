@@ -33,8 +33,10 @@ force-model blend 'model', the perturbation switch 'pert', a parameter path 'par
 Both passes run inside one compiled ``lax.while_loop`` each. Written by hand because diffrax
 integrates one smooth field per solve: the arc loop, the bracketing and the saltation are the
 standard treatment of a field discontinuous across a switching surface. A switch where S is
-tangent to zero (∂S/∂K + ∇_y S · g⁻ → 0) makes dK_s/dz unbounded; the map has no answer there,
-and the success flag stays true (the smoothed map is the fallback, chosen by the caller).
+tangent to zero (∂S/∂K + ∇_y S · g⁻ → 0: an arc being born or dying) makes dK_s/dz unbounded and
+the map not differentiable; nothing here detects that, and the success flag stays true. Paths
+through such places crawl (E8 500, the 4×4 → full blend near τ 0.17): that is what the
+smoothing is for, and the caller's choice (case option ``switching``).
 The spike and its measurements: docs/experiments/e8_exact_switching.py.
 """
 from __future__ import annotations
@@ -55,7 +57,7 @@ SAMPLES_PER_STEP = 8      # samples of S per step of a segment (arcs shorter tha
 S_NOISE = 1e-10           # |S| of the integration error at a switch (S is of order 1e-2 at E8)
 MAX_SWITCHES = 8192       # capacity of the switch list (E8 500: 1 043)
 BISECTIONS = 60           # halvings of the bracketing sample interval (≤ 0.05 rad → 4e-20 rad)
-RESTEP_STEPS = 64
+RESTEP_STEPS = 64          # step cap of y(K_s) stepped from the last step point (within one step)
 # |f| where Newton on the exact map stops improving: the integration error summed over a thousand
 # arcs (E8 500 rev, end-point tolerances: 1e-10 … 2e-10 after 12 polish iterations, the 4×4
 # blend; 7.7e-11 in the spike); the followers' final polish stops here (chain._polish_floor)

@@ -326,7 +326,8 @@ def case_switching(pc: dict, case: str) -> str:
     if value == "exact":
         for key in ("perturb_at_eps", "model_step_at_eps"):
             if cc.get(key) is not None:
-                raise ConfigError(f"{path}.{key}", cc[key], "the exact bang-bang map (switching: exact) has no smoothing eps")
+                raise ConfigError(f"{path}.{key}", cc[key],
+                                  "the exact bang-bang map (switching: exact) has no smoothing eps")
         arcs = cc.get("path_arcs")
         if arcs is not None and any(v > 1 for v in (arcs.values() if isinstance(arcs, dict) else [arcs])):
             raise ConfigError(f"{path}.path_arcs", arcs, "the exact bang-bang map (switching: exact) is single shooting")
