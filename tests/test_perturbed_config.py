@@ -1189,6 +1189,9 @@ def test_the_end_game_rows_and_sentence_say_what_was_certified_moved_and_not_fou
     text = R.tof_maximum_sentence(rows)
     assert "at a larger smoothing" in text and "e8\\_g44\\_moon\\_sun\\_n500: $\\varepsilon$ 0.001, $\\Delta t$ 321.1281 $\\to$ 321.0000 d" in text
     assert R.tof_maximum_sentence([]) == ""
+    # on the exact bang-bang map the end game has no eps to lift (free_time records why)
+    payloads["e8_g44_moon_sun_n500"]["extra"]["tof_maximum"]["lift"] = {"eps": None, "off": "exact map"}
+    assert R.tof_maximum_rows(payloads)[-1]["lift_eps"] is None
 
 
 def test_a_failed_polish_reports_its_best_point_beside_where_it_stopped():

@@ -581,7 +581,7 @@ def maximise_final_mass(sol, options: MaximumOptions | None = None):
         record["m_f0_kg"] = origin.m_f * tr.m0
         found = search.bracket(origin)
         if isinstance(found, str) and sol.shooting.switching == "exact":
-            record["lift"] = "off: the exact bang-bang map has no smoothing eps to lift"
+            record["lift"] = {"eps": None, "off": "the exact bang-bang map has no smoothing eps to lift"}
         elif isinstance(found, str) and opt.lift_eps > 0.0:
             found = search.across_branches(origin, found)
             record["lift"] = {"eps": opt.lift_eps, "bracket_days": search.lift_bracket, "failed": search.lift_failed,
