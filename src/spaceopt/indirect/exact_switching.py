@@ -217,12 +217,17 @@ def transversality(sh, z, tau, prm, delta):
     return y0[sh.model.n + hm.LK] + hamiltonian(sh.model, 0.0, y0, tau, prm, delta=delta)
 
 
+def _pass1(sh, z, tau, prm, rtol, atol):
+    """Pass 1 (:func:`switches`) from the unknowns z of the layout ``sh``."""
+    y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
+    return switches(sh.model, y0, z[sh.kf_index], tau, prm, rtol, atol, sh.max_steps)
+
+
 @partial(jax.jit, static_argnums=0)
 def residual(sh, z, tau, prm, rtol, atol):
     """f(z, τ) of the exact map, and the success flag (pass 1 only)."""
     kf = sh.kf_index
-    y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
-    p1 = switches(sh.model, y0, z[kf], tau, prm, rtol, atol, sh.max_steps)
+    p1 = _pass1(sh, z, tau, prm, rtol, atol)
     r_term = terminal_residual(sh, p1["yf"], z[kf], params_at(sh.model, prm, tau), tau)
     f = jnp.concatenate([jnp.atleast_1d(transversality(sh, z, tau, prm, p1["d0"])), r_term])
     return f, p1["status"] == DONE
@@ -231,8 +236,7 @@ def residual(sh, z, tau, prm, rtol, atol):
 @partial(jax.jit, static_argnums=0)
 def final_state(sh, z, tau, prm, rtol, atol):
     """y(K_f) of the exact map, and the success flag."""
-    y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
-    p1 = switches(sh.model, y0, z[sh.kf_index], tau, prm, rtol, atol, sh.max_steps)
+    p1 = _pass1(sh, z, tau, prm, rtol, atol)
     return p1["yf"], p1["status"] == DONE
 
 
@@ -264,8 +268,7 @@ def shoot(sh, z, tau, prm, rtol, atol):
 @partial(jax.jit, static_argnums=0)
 def switch_points(sh, z, tau, prm, rtol, atol):
     """Pass 1's switches of the unknowns z: (δ on the first arc, K_s array, count, status)."""
-    y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
-    p1 = switches(sh.model, y0, z[sh.kf_index], tau, prm, rtol, atol, sh.max_steps)
+    p1 = _pass1(sh, z, tau, prm, rtol, atol)
     return p1["d0"], p1["Ks"], p1["n_switches"], p1["status"]
 
 
@@ -278,7 +281,7 @@ def dense(sh, z, tau, prm, n, max_steps, rtol=1e-12, atol=1e-13):
     (diffrax ``jump_ts``), so no step straddles a discontinuity of the field."""
     kf = sh.kf_index
     y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
-    p1 = switches(sh.model, y0, z[kf], tau, prm, sh.rtol, sh.atol, sh.max_steps)
+    p1 = switches(sh.model, y0, z[kf], tau, prm, sh.rtol, sh.atol, sh.max_steps)   # y0 is needed below
     Ks = jnp.linspace(0.0, z[kf], n)
 
     def rhs(K, y, _):

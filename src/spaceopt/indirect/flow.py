@@ -155,12 +155,21 @@ def field(model: Model, K, y, tau, prm, delta=None):
     return g
 
 
+SWITCHINGS = ("smoothed", "exact")     # the throttle δ(S, ε) (3.3.2), or 1[S > 0] (.exact_switching)
+
+
+def has_bang_bang_throttle(model: Model) -> bool:
+    """Whether ``model``'s throttle is a function of S alone, so that it can be fixed on the arcs
+    of the exact map: a pure OT field (the LP → OT blend and the T_min problems are not)."""
+    return model.kind == "ot" and model.homotopy != "lp"
+
+
 def _ot_throttle(model: Model, K, y, tau, prm, delta):
     """(δ, problem data at the OT thrust): the smoothed δ(S, ε), or ``delta`` where it is given."""
     if delta is None:
         delta, _, prm_t = ot_delta(model, K, y, tau, prm)
         return delta, prm_t
-    if model.kind != "ot" or model.homotopy == "lp":
+    if not has_bang_bang_throttle(model):
         raise ValueError(f"a fixed throttle needs a pure OT model, not {model}")
     return delta, {**prm, "thrust": ot_params(model, tau, prm)[0]}
 

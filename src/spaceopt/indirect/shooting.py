@@ -30,14 +30,9 @@ import jax
 import jax.numpy as jnp
 
 from . import hamiltonians as hm
-from .flow import Model, field, hamiltonian, params_at, propagate, propagate_with_sensitivities, tmin_ot_tau
+from .flow import (SWITCHINGS, Model, field, hamiltonian, has_bang_bang_throttle, params_at, propagate,
+                   propagate_with_sensitivities, tmin_ot_tau)
 from .transfer import MAX_STEPS, PATH_RTOL
-
-
-def exact_switching_supports(model: Model) -> bool:
-    """Whether the exact bang-bang map is defined for ``model``: a pure OT field (δ a function of
-    S only; the LP → OT blend and the T_min problems have no switches of that kind)."""
-    return model.kind == "ot" and model.homotopy != "lp"
 
 COSTATE_NAMES = ("p_p", "p_ex", "p_ey", "p_ix", "p_iy", "p_LK", "p_t", "p_m")
 
@@ -57,9 +52,9 @@ class Shooting:
     switching: str = "smoothed"   # 'exact': δ = 1[S > 0] with switches located (.exact_switching)
 
     def __post_init__(self):
-        if self.switching not in ("smoothed", "exact"):
+        if self.switching not in SWITCHINGS:
             raise ValueError(f"switching: {self.switching!r} is neither 'smoothed' nor 'exact'")
-        if self.switching == "exact" and not exact_switching_supports(self.model):
+        if self.switching == "exact" and not has_bang_bang_throttle(self.model):
             raise ValueError(f"switching: 'exact' needs a pure OT model, not {self.model}")
         if self.switching == "exact" and self.path_arcs > 1:
             raise ValueError(f"switching: 'exact' is single shooting (path_arcs {self.path_arcs})")

@@ -157,9 +157,10 @@ def load(json_path) -> Solution:
     tr = Transfer(Orbit(**t["initial"]), Orbit(**t["final"]),
                   **{k: v for k, v in t.items() if k not in ("initial", "final")})
     m = data["model"]
-    exact = m.get("switching", "smoothed") == "exact"
+    switching = m.get("switching", "smoothed")
+    exact = switching == "exact"
     sh = Shooting(Model(m["kind"], m["homotopy"], m.get("perturbed", False)), tuple(m["free_costates"]),
-                  fixed_time=m.get("fixed_time", False), switching=m.get("switching", "smoothed"),
+                  fixed_time=m.get("fixed_time", False), switching=switching,
                   **{**tr.integration(), **({"path_arcs": 1} if exact else {})})
     thrust = data["thrust_N"]
     pinned = m.get("thrust_pinned_N", thrust)          # a point of a homotopy at τ < 1 (model 'tau')

@@ -43,6 +43,7 @@ from ..indirect import chain
 from ..indirect import hamiltonians as hm
 from ..indirect.chain import Solution
 from ..indirect.continuation import ACCEPTED_UPDATES, GROWTH, ArclengthOptions, ContinuationOptions
+from ..indirect.flow import SWITCHINGS
 from ..indirect.free_time import MaximumOptions, maximise_final_mass
 from ..indirect.shooting import Shooting
 from ..indirect.transfer import MAX_STEPS, PATH_RTOL, Orbit, Transfer, step_cap
@@ -57,7 +58,6 @@ CASE_KEYS = ("initial", "final", "L0_deg", "n_rev", "m0_kg", "isp_s", "thrust_N"
 OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref", "route", "model_start", "fallback",
                       "perturb_at_eps", "model_step_at_eps", "path_rtol", "path_arcs", "warm_step_growth",
                       "model_step", "tof_maximum", "switching")
-SWITCHINGS = ("smoothed", "exact")
 MODEL_STEP_PATHS = ("tau", "arclength")
 
 
