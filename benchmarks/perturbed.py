@@ -1,6 +1,6 @@
 """Benchmark of the perturbed §4.2 studies (issue #3: E8 500-rev chain ≤ 10 min on 2 cores; E6 scan).
 
-Three parts, all written to ``results/benchmarks/perturbed.json`` (parts not rerun are kept):
+Six parts, all written to ``results/benchmarks/perturbed.json`` (parts not rerun are kept):
 
 1. ``measured``: wall times read from the solve artifacts that exist (provenance wall_time_s of
    results/perturbed/**/<stage>.json): each E5/E7/E9 chain, every E6 date and the scan total,
@@ -26,10 +26,18 @@ Three parts, all written to ``results/benchmarks/perturbed.json`` (parts not rer
    ``flow.propagate_with_sensitivities``) is compiled in a loop of ``PROFILE_EVALS`` evaluations;
    reported: µs per evaluation (min over interleaved rounds) and the number of XLA kernels
    (instructions of the compiled loop body). On CPU the cost is per kernel, not per flop.
+5. ``e8_exact_route`` (``--exact-route N``): the E8 route to every model on the exact bang-bang
+   map, stage by stage (:func:`e8_exact_route`).
+6. ``corrector`` (``--corrector-compare N``): the E8 LP → OT path to ε₁ (the chain's costliest
+   stage) at N revolutions with Newton's corrector and with the chord corrector, side by side in
+   one process after both maps are compiled, from the same LP solution: wall time, Jacobians,
+   residual evaluations, steps, m_p and Δt, and the ratio of the wall times
+   (:func:`corrector_comparison`).
 
 Usage:
   python benchmarks/perturbed.py [--revs 5] [--rounds 10] [--baseline REV] [--e8-revs 200 ...]
-                                 [--skip-propagation] [--skip-e8] [--profile]
+                                 [--skip-propagation] [--skip-e8] [--profile] [--exact-route N ...]
+                                 [--corrector-compare N ...]
 """
 from __future__ import annotations
 
@@ -359,7 +367,7 @@ def e8_chain(n_rev: float, model: str, start=None) -> tuple[dict, object]:
     return rec, ot
 
 
-def e8_exact_route(n_rev: float) -> dict:
+def e8_exact_route(n_rev: float, corrector: str = "newton") -> dict:
     """The E8 route to every model of the case at ``n_rev`` on the exact bang-bang map
     (:mod:`spaceopt.indirect.exact_switching`), each stage timed: the unperturbed chain from the
     zero guess to ε₁ = eps_blend only (no descent in ε), the exact unperturbed extremal by Newton
@@ -368,7 +376,8 @@ def e8_exact_route(n_rev: float) -> dict:
     (``chain.continue_in_model``, single shooting, τ); the free-time end game of the last model
     on the exact map (the case's settings; its lift across branches needs a smoothing ε and is
     off). Per stage: wall time, Jacobians, m_p, Δt; the route's total; the DAG's artifacts of the
-    same solves where they exist (``results/perturbed/e8``) for comparison."""
+    same solves where they exist (``results/perturbed/e8``) for comparison. ``corrector``: the
+    continuation corrector of every path ('newton' | 'chord', ``ContinuationOptions``)."""
     import dataclasses
 
     import jax.numpy as jnp
@@ -382,6 +391,7 @@ def e8_exact_route(n_rev: float) -> dict:
     eph = P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"])
     models = pc["cases"]["e8"]["models"]
     label = f"bench/e8-exact/n{n_rev:g}"
+    options = chain.ContinuationOptions(corrector=corrector)
 
     def transfer(model):
         tr = P.transfer_from_config(pc, "e8", model, ephemeris=eph, n_rev=n_rev)
@@ -397,11 +407,11 @@ def e8_exact_route(n_rev: float) -> dict:
                         "tof_days": float(yf[hm.TIME]) * u["time_s"] / 86400.0}
         print(f"[{label}] {name}: {stages[name]}", file=sys.stderr, flush=True)
 
-    out = {"n_rev": n_rev, "stages": stages}
+    out = {"n_rev": n_rev, "corrector": corrector, "stages": stages}
     try:
         t0 = time.perf_counter()
         lp, smooth = P.solve_for(transfer(models[0]), f"{label}/{models[0]}",
-                                 path=pc["numerics"].get("homotopy_path", "arclength"))
+                                 path=pc["numerics"].get("homotopy_path", "arclength"), options=options)
         record(f"{models[0]} chain to eps_blend", smooth, t0, _jacobians(lp.stats) + _jacobians(smooth.stats))
         t0 = time.perf_counter()
         sol = chain.to_exact(smooth, label=f"{label}/{models[0]} exact")
@@ -409,10 +419,10 @@ def e8_exact_route(n_rev: float) -> dict:
         for i, model in enumerate(models[1:]):
             tr, t0 = transfer(model), time.perf_counter()
             if i == 0:
-                sol = P.perturb_from_unperturbed(sol, tr, f"{label}/{model} on", path="tau")
+                sol = P.perturb_from_unperturbed(sol, tr, f"{label}/{model} on", path="tau", options=options)
             else:
                 sol = chain.continue_in_model(P.warm_start_integration(sol, tr), tr.params(thrust=sol.thrust_N),
-                                              label=f"{label}/{model}")
+                                              options, label=f"{label}/{model}")
                 sol.transfer = tr
             record(f"{model} exact", sol, t0, _jacobians(sol.stats))
         settings = {**(P.tof_maximum_settings(pc, "e8") or {}), "lift_eps": 0.0}
@@ -425,6 +435,46 @@ def e8_exact_route(n_rev: float) -> dict:
     out["route_wall_time_s"] = time.perf_counter() - t_route
     out["route_jacobian_evaluations"] = sum(r["jacobian_evaluations"] or 0 for r in stages.values())
     out["dag_artifacts"] = _dag_e8(n_rev, models)
+    return out
+
+
+def corrector_comparison(n_rev: float) -> dict:
+    """E8 unperturbed LP → OT (the (3.3.1) blend to ε₁, the case's homotopy path) at ``n_rev``
+    with each corrector (``ContinuationOptions.corrector``), one after the other from the same
+    LP solution, both maps (full evaluation and residual alone) compiled beforehand."""
+    import dataclasses
+
+    import jax.numpy as jnp
+    from spaceopt.indirect import chain
+    from spaceopt.indirect import hamiltonians as hm
+    from spaceopt.indirect.shooting import final_state, residual, shoot
+    from spaceopt.studies import perturbed as P
+
+    pc = _perturbed_config()
+    eph = P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"])
+    tr = P.transfer_from_config(pc, "e8", "unperturbed", ephemeris=eph, n_rev=n_rev)
+    tr = dataclasses.replace(tr, eps_final=tr.eps_blend, path_arcs=1)
+    path = pc["numerics"].get("homotopy_path", "arclength")
+    lp = chain.solve_lp(tr, label=f"bench/corrector/n{n_rev:g}/lp")
+    sh = chain.shooting_for("ot", "lp", tr)
+    prm = {**tr.params(thrust=tr.thrust), "blend_ref": jnp.asarray(chain.blend_reference(lp))}
+    z0 = jnp.asarray(chain.start_vector(sh, lp.doubled_costates(), lp.K_f))
+    for fn in (shoot, residual):                                # compile both before timing
+        jnp.asarray(fn(sh, z0, 0.0, prm, *chain._path_tolerances(sh))[0]).block_until_ready()
+    out = {"n_rev": n_rev, "path": path, "stage": "LP -> OT to eps_blend"}
+    for corrector in ("newton", "chord"):
+        t0 = time.perf_counter()
+        ot = chain.solve_ot(lp, tr.thrust, chain.ContinuationOptions(corrector=corrector),
+                            label=f"bench/corrector/n{n_rev:g}/{corrector}", path=path)
+        wall = time.perf_counter() - t0
+        yf, _ = final_state(ot.shooting, jnp.asarray(ot.z), 1.0, ot.prm)
+        u = tr.units()
+        out[corrector] = {"wall_time_s": wall, "jacobian_evaluations": ot.stats["jacobian_evaluations"],
+                          "residual_evaluations": ot.stats["residual_evaluations"], "steps": ot.stats["steps"],
+                          "rejected_steps": ot.stats["rejected_steps"],
+                          "m_p_kg": (1.0 - float(yf[hm.MASS])) * u["mass_kg"],
+                          "tof_days": float(yf[hm.TIME]) * u["time_s"] / 86400.0}
+    out["wall_time_ratio_newton_over_chord"] = out["newton"]["wall_time_s"] / out["chord"]["wall_time_s"]
     return out
 
 
@@ -494,6 +544,10 @@ def main(argv=None):
     ap.add_argument("--skip-e8", action="store_true")
     ap.add_argument("--exact-route", type=float, nargs="*", default=[],
                     help="revolution counts of the E8 route on the exact bang-bang map (e8_exact_route)")
+    ap.add_argument("--exact-route-corrector", choices=("newton", "chord"), default="newton",
+                    help="the continuation corrector of the exact route's paths")
+    ap.add_argument("--corrector-compare", type=float, nargs="*", default=[],
+                    help="revolution counts of the E8 LP -> OT path with either corrector (corrector)")
     ap.add_argument("--profile", action="store_true", help="field cost per force model (kernels, us/eval)")
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
@@ -501,7 +555,8 @@ def main(argv=None):
         return _worker(a.revs)
     out_path = Path(a.out)
     report = json.loads(out_path.read_text()) if out_path.exists() else {}
-    report = {k: v for k, v in report.items() if k in ("propagation", "e8", "field_profile", "e8_exact_route")}
+    report = {k: v for k, v in report.items()
+              if k in ("propagation", "e8", "field_profile", "e8_exact_route", "corrector")}
     report["machine"] = {"cpu_count": os.cpu_count(), "load_avg_start": os.getloadavg()}
     report["measured"] = measured(Path(a.results))
     report["target_s"] = TARGET_S
@@ -531,7 +586,11 @@ def main(argv=None):
                 report["e8_published_500"] = published_500()
                 write()
     for n in a.exact_route:
-        report.setdefault("e8_exact_route", {})[f"n{n:g}"] = e8_exact_route(n)
+        key = f"n{n:g}" + ("" if a.exact_route_corrector == "newton" else f"_{a.exact_route_corrector}")
+        report.setdefault("e8_exact_route", {})[key] = e8_exact_route(n, a.exact_route_corrector)
+        write()
+    for n in a.corrector_compare:
+        report.setdefault("corrector", {})[f"n{n:g}"] = corrector_comparison(n)
         write()
     write()
     print(json.dumps(report, indent=2), file=sys.stderr)

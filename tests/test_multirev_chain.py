@@ -127,6 +127,15 @@ def test_ot_via_tmin_route_reaches_the_blend_solution(e1):
     np.testing.assert_allclose(ot.z, e1["ot"].z, rtol=1e-6, atol=1e-9)
 
 
+def test_chord_corrector_reaches_the_newton_extremal_with_fewer_jacobians(e1):
+    """LP -> OT 15 N with the chord corrector (later corrector steps without a Jacobian): the
+    same extremal as Newton's corrector, fewer Jacobians."""
+    ot = chain.solve_ot(e1["lp"], 15.0, chain.ContinuationOptions(verbose=False, corrector="chord"))
+    assert ot.stats["residual_evaluations"] > 0
+    assert ot.stats["jacobian_evaluations"] < e1["ot"].stats["jacobian_evaluations"]
+    np.testing.assert_allclose(ot.z, e1["ot"].z, rtol=1e-7, atol=1e-10)
+
+
 def test_smoothed_continuation_reaches_the_direct_one(e1):
     """continue_in_params_smoothed (ε_f → 10⁻² → move → ε_f, the E8 n → n route) ends on the
     extremal the direct continuation at ε_f reaches: E1 OT at 15 → 16 N."""

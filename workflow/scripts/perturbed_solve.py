@@ -51,7 +51,7 @@ def solve(sm, cfg, case, model, tr, label, warm_kw, fail):
             try:
                 lp, sol = P.solve_for(tr, label, bool(cc.get("lp_perturbed", False)),
                                       cc.get("homotopy_path", cfg["numerics"].get("homotopy_path", "arclength")),
-                                      blend_ref=cc.get("blend_ref"), route=route,
+                                      options=P.chain_options(cfg, case), blend_ref=cc.get("blend_ref"), route=route,
                                       switching=P.case_switching(cfg, case))
                 extra = {"continued_from": "chain", "route": route,
                          "lp": {k: lp.extra[k] for k in ("J_LP_m2s3", "dv_m_s", "tof_s")},

@@ -121,7 +121,8 @@ def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None, path
     rtol, atol = _path_tolerances(sh)
     cont = PATHS[path](lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm, rtol, atol), opt,
                        polish=lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm),
-                       residual=lambda z, tau: residual(sh, jnp.asarray(z), tau, prm))
+                       residual=lambda z, tau: residual(sh, jnp.asarray(z), tau, prm),
+                       path_residual=lambda z, tau: residual(sh, jnp.asarray(z), tau, prm, rtol, atol))
     return _follow(cont, z0, path)
 
 
@@ -160,7 +161,9 @@ def _run_multiple(sh: Shooting, z0, prm, label, options, path, arcs):
     opt = path_options(path, options, f"{label} ({arcs} arcs)")
     cont = PATHS[path](lambda Z, tau: multiple_shoot(ms, jnp.asarray(Z), tau, prm, nodes, weights, rtol, atol),
                        opt, polish=lambda Z, tau: multiple_shoot(ms, jnp.asarray(Z), tau, prm, nodes, weights),
-                       residual=lambda Z, tau: multiple_residual(ms, jnp.asarray(Z), tau, prm, nodes, weights))
+                       residual=lambda Z, tau: multiple_residual(ms, jnp.asarray(Z), tau, prm, nodes, weights),
+                       path_residual=lambda Z, tau: multiple_residual(ms, jnp.asarray(Z), tau, prm, nodes, weights,
+                                                                      rtol, atol))
     try:
         Z, stats = _follow(cont, Z0, path)
     except ConvergenceError as exc:
@@ -179,9 +182,9 @@ def _newton_at_end(sh: Shooting, z0, prm, label, options):
     single = lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm)  # noqa: E731
     # a polish distinct from the path's map: the follower then re-evaluates f at τ = 1 instead of
     # taking its Newton homotopy's F = f − b, which is 0 where it starts
+    at_end = lambda z, tau: residual(sh, jnp.asarray(z), tau, prm)  # noqa: E731
     polish = Continuation(single, _polish_floor(sh, path_options("tau", options, label)),
-                          polish=lambda z, tau: single(z, tau),
-                          residual=lambda z, tau: residual(sh, jnp.asarray(z), tau, prm))
+                          polish=lambda z, tau: single(z, tau), residual=at_end, path_residual=at_end)
     return _follow(polish, z0, "tau", tau0=1.0)
 
 

@@ -42,7 +42,7 @@ from ..errors import ArtifactError, ConfigError, ConvergenceError
 from ..indirect import chain
 from ..indirect import hamiltonians as hm
 from ..indirect.chain import Solution
-from ..indirect.continuation import ACCEPTED_UPDATES, GROWTH, ArclengthOptions, ContinuationOptions
+from ..indirect.continuation import ACCEPTED_UPDATES, CORRECTORS, GROWTH, ArclengthOptions, ContinuationOptions
 from ..indirect.flow import SWITCHINGS
 from ..indirect.free_time import MaximumOptions, maximise_final_mass
 from ..indirect.shooting import Shooting
@@ -57,7 +57,7 @@ CASE_KEYS = ("initial", "final", "L0_deg", "n_rev", "m0_kg", "isp_s", "thrust_N"
              "ephemeris", "models")
 OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref", "route", "model_start", "fallback",
                       "perturb_at_eps", "model_step_at_eps", "path_rtol", "path_arcs", "warm_step_growth",
-                      "model_step", "tof_maximum", "switching")
+                      "model_step", "tof_maximum", "switching", "corrector")
 MODEL_STEP_PATHS = ("tau", "arclength")
 
 
@@ -337,6 +337,24 @@ def case_switching(pc: dict, case: str) -> str:
     return value
 
 
+def case_corrector(pc: dict, case: str) -> str:
+    """Case option ``corrector``: 'newton' (the default), a Jacobian at every corrector
+    evaluation, or 'chord', the corrector's later steps with the Jacobian of its first and f
+    alone (:mod:`spaceopt.indirect.continuation`), on every path of the case: the chain's and
+    the warm starts'."""
+    value = pc["cases"][case].get("corrector", "newton")
+    if value not in CORRECTORS:
+        raise ConfigError(f"perturbed.cases.{case}.corrector", value, f"expected one of {', '.join(CORRECTORS)}")
+    return value
+
+
+def chain_options(pc: dict, case: str) -> ContinuationOptions | None:
+    """Continuation options of the case's chain from the zero guess (:func:`solve_for`): the
+    case's ``corrector`` (:func:`case_corrector`); None (the followers' defaults) for Newton's."""
+    corrector = case_corrector(pc, case)
+    return None if corrector == "newton" else ContinuationOptions(corrector=corrector)
+
+
 STEP_SETTINGS = ("step_growth", "accepted_update", "step_rcond", "flat_step", "end_overshoot", "h_max")
 
 
@@ -401,7 +419,7 @@ def warm_start_options(pc: dict, case: str, checkpoint_dir: str = "", model: str
                        n_rev: float | None = None) -> ContinuationOptions | None:
     """Continuation options of the case's warm starts (:func:`warm_start`): case option
     ``warm_step_growth`` ('iterations' | 'residual', :mod:`spaceopt.indirect.continuation`),
-    the continuation settings ``model_step`` names for ``model`` at ``n_rev``
+    ``corrector`` (:func:`case_corrector`), the continuation settings ``model_step`` names for ``model`` at ``n_rev``
     (:func:`case_model_step`; they take precedence) and ``checkpoint_dir`` (paths resumable
     after an interruption, ``ContinuationOptions``); None (the followers' defaults) where none
     is given. Options of an arclength model step are :class:`ArclengthOptions`, so that its
@@ -412,7 +430,10 @@ def warm_start_options(pc: dict, case: str, checkpoint_dir: str = "", model: str
     if growth is not None and growth not in GROWTH:
         raise ConfigError(f"perturbed.cases.{case}.warm_step_growth", growth, f"expected one of {', '.join(GROWTH)}")
     step = case_model_step(cc, model, f"perturbed.cases.{case}", n_rev) if model is not None else {}
-    settings = {**({"step_growth": growth} if growth else {}), **{k: v for k, v in step.items() if k != "path"}}
+    corrector = case_corrector(pc, case)
+    settings = {**({"step_growth": growth} if growth else {}),
+                **({"corrector": corrector} if corrector != "newton" else {}),
+                **{k: v for k, v in step.items() if k != "path"}}
     if not settings and not checkpoint_dir:
         return None
     kind = ArclengthOptions if step.get("path") == "arclength" else ContinuationOptions

@@ -1,0 +1,80 @@
+"""The chord corrector of the continuation followers (``ContinuationOptions.corrector``): the
+corrector's later steps reuse the Jacobian of its first evaluation and evaluate f alone, a fresh
+Jacobian where a chord step reduces |F| without halving it. Same paths, same end points as the
+Newton corrector, fewer Jacobians."""
+import numpy as np
+import pytest
+
+from spaceopt.indirect.continuation import (ArclengthContinuation, ArclengthOptions, Continuation,
+                                            ContinuationOptions)
+
+
+class Counted:
+    """f(z, τ) = (z₀³ + z₁ − 2τ, z₁³ + z₁ − z₀ − τ) with its derivatives, evaluations counted:
+    ``evaluate`` (f, J, f_τ; a 'Jacobian') and ``residual`` (f alone)."""
+
+    def __init__(self):
+        self.jacobians = self.residuals = 0
+
+    @staticmethod
+    def f(z, tau):
+        return np.array([z[0] ** 3 + z[1] - 2 * tau, z[1] ** 3 + z[1] - z[0] - tau])
+
+    def evaluate(self, z, tau):
+        self.jacobians += 1
+        J = np.array([[3 * z[0] ** 2, 1.0], [-1.0, 3 * z[1] ** 2 + 1]])
+        return self.f(z, tau), J, np.array([-2.0, -1.0]), 0, True
+
+    def residual(self, z, tau):
+        self.residuals += 1
+        return self.f(z, tau), True
+
+
+@pytest.mark.parametrize("follower, options", [(Continuation, ContinuationOptions),
+                                               (ArclengthContinuation, ArclengthOptions)])
+def test_chord_corrector_follows_the_newton_path_with_fewer_jacobians(follower, options):
+    ends = {}
+    for mode in ("newton", "chord"):
+        fz = Counted()
+        cont = follower(fz.evaluate, options(verbose=False, corrector=mode, h_max=0.5), residual=fz.residual,
+                        path_residual=fz.residual)
+        z, _ = cont.run(np.array([0.0, 0.0]))
+        assert np.abs(Counted.f(z, 1.0)).max() < 1e-10
+        ends[mode] = (z, fz.jacobians, cont.stats)
+    (z_n, jac_n, st_n), (z_c, jac_c, st_c) = ends["newton"], ends["chord"]
+    np.testing.assert_allclose(z_c, z_n, atol=1e-10)
+    assert st_n.residuals == 0 and st_c.residuals > 0      # chord steps were taken
+    assert st_c.jacobians == jac_c and jac_c < jac_n
+
+
+def test_a_slow_chord_step_takes_a_fresh_jacobian_and_goes_on_by_newton():
+    """f = z + z³ from z = 1 with J held there (4): chord steps to 0.5 (|F| 2 → 0.625, halved),
+    then 0.344 (|F| 0.385, not halved): the corrector evaluates J at 0.344 and goes on with chord
+    steps from it (each now at least halving |F|) instead of rejecting the step."""
+    jac_at = []
+
+    def residual(x, held=None):
+        F = np.atleast_1d(x + x ** 3)
+        if held is not None:
+            return F, held
+        jac_at.append(float(x[0]))
+        return F, (np.array([[1 + 3 * x[0] ** 2]]),)
+
+    def newton_step(x, F, ev):
+        return x - np.linalg.solve(ev[0], F)
+
+    cont = Continuation(lambda z, t: None, ContinuationOptions(verbose=False, corrector="chord", tol_step=1e-4,
+                                                               max_chord=10),
+                        path_residual=lambda z, t: None)
+    accepted, x, F, ev, nF, evals = cont._correct(np.array([1.0]), residual, newton_step)
+    assert accepted and abs(x[0]) < 1e-4
+    assert jac_at[0] == 1.0 and jac_at[1] == pytest.approx(0.34375)     # the refresh at the slow step
+    assert len(jac_at) < evals                                          # the other steps were chords
+
+
+def test_chord_corrector_options_are_checked():
+    fz = Counted()
+    with pytest.raises(ValueError, match="corrector 'secant'"):
+        Continuation(fz.evaluate, ContinuationOptions(corrector="secant"))
+    with pytest.raises(ValueError, match="needs path_residual"):
+        Continuation(fz.evaluate, ContinuationOptions(corrector="chord"), residual=fz.residual)
