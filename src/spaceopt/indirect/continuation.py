@@ -116,7 +116,7 @@ class ContinuationOptions:
     flat_chord: int = 30                # chord steps per valley point; secant steps at most
     flat_restarts: int = 3              # rounds of flat root + Newton in the final polish (_polish)
     end_overshoot: float = 0.0          # arclength: landing on τ = 1 (module docstring); 0 = none
-    corrector: str = "newton"           # or 'chord': later corrector steps with the held Jacobian (module docstring)
+    corrector: str = "newton"           # or 'chord': later corrector steps without a Jacobian (module docstring)
     max_chord: int = 6                  # chord corrector: evaluations per step at most
 
 
