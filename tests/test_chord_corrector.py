@@ -78,3 +78,26 @@ def test_chord_corrector_options_are_checked():
         Continuation(fz.evaluate, ContinuationOptions(corrector="secant"))
     with pytest.raises(ValueError, match="needs path_residual"):
         Continuation(fz.evaluate, ContinuationOptions(corrector="chord"), residual=fz.residual)
+
+
+def test_the_polish_steps_across_an_edge_of_the_map_once_then_stays_on_its_side():
+    """f(x) = 10(x − 0.9) − 1e-6 below the edge x = 0.9 (its root lies beyond the edge) and
+    x − 0.95 above it. Newton from 0.8999 steps across the edge, |F| 1e-3 → 0.05: the plain
+    polish stops there (|F| 1e-3, a failure); with ``polish_crossings`` it goes on to the root 0.95."""
+    from spaceopt.errors import ConvergenceError
+
+    def f(x):
+        return np.atleast_1d(10 * (x[0] - 0.9) - 1e-6 if x[0] < 0.9 else x[0] - 0.95)
+
+    def ev(x, tau):
+        return f(x), np.array([[10.0 if x[0] < 0.9 else 1.0]]), np.zeros(1), 0, True
+
+    def polish(**kw):
+        # a polish distinct from the path's map: f itself at τ = 1, not the Newton homotopy's f − b
+        cont = Continuation(ev, ContinuationOptions(verbose=False, **kw), polish=lambda x, t: ev(x, t),
+                            residual=lambda x, t: (f(x), True))
+        return cont.run(np.array([0.8999]), tau0=1.0)[0]
+
+    with pytest.raises(ConvergenceError, match="polish"):
+        polish()
+    assert polish(polish_crossings=1)[0] == pytest.approx(0.95, abs=1e-12)

@@ -128,10 +128,12 @@ def _run(sh: Shooting, z0, prm, label, options: ContinuationOptions | None, path
 
 def _polish_floor(sh: Shooting, opt: ContinuationOptions) -> ContinuationOptions:
     """The follower options of ``sh``: on the exact map the final polish stops at its noise floor
-    (:data:`.exact_switching.TOL_FINAL`), not below it."""
-    if sh.switching != "exact" or opt.tol_final >= exact_switching.TOL_FINAL:
+    (:data:`.exact_switching.TOL_FINAL`), not below it, and steps across the map's edges
+    (:data:`.exact_switching.POLISH_CROSSINGS`)."""
+    if sh.switching != "exact":
         return opt
-    return dataclasses.replace(opt, tol_final=exact_switching.TOL_FINAL)
+    return dataclasses.replace(opt, tol_final=max(opt.tol_final, exact_switching.TOL_FINAL),
+                               polish_crossings=max(opt.polish_crossings, exact_switching.POLISH_CROSSINGS))
 
 
 def _path_tolerances(sh: Shooting):

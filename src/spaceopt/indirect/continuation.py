@@ -76,7 +76,9 @@ corrector's first does, the others about an eighth of it). Measured on E8 LP →
 ε₁) at 200 revolutions: a residual costs 0.09 s against 0.77 s for the full evaluation;
 Newton's corrector 109 Jacobians, 34 steps, 83 s; the chord corrector 52 Jacobians and 120
 residuals, 40 steps, 52 s, the same extremal (m_p to 1e-9; docs/perturbed-e6-e7-e8.md,
-"thirty-seventh session").
+"thirty-seventh session"). ``polish_crossings`` > 0: the final polish of a map with edges,
+where f jumps (the exact bang-bang map where a flat arc is born), steps across an edge that many
+times and then keeps to the side it reached (:meth:`Continuation._newton_polish`).
 """
 from __future__ import annotations
 
@@ -118,6 +120,7 @@ class ContinuationOptions:
     end_overshoot: float = 0.0          # arclength: landing on τ = 1 (module docstring); 0 = none
     corrector: str = "newton"           # or 'chord': later corrector steps without a Jacobian (module docstring)
     max_chord: int = 6                  # chord corrector: evaluations per step at most
+    polish_crossings: int = 0           # final polish: steps taken across an edge of the map (_newton_polish)
 
 
 @dataclass
@@ -535,29 +538,56 @@ class Continuation:
         """The iterations of :meth:`_polish`: (z, J, F, |F|) where they stop. ``at_root`` (after
         :meth:`_flat_root`): below 1e3 tol_final a step that does not halve |F| ends them, the
         integration noise floor reached (E8 450, 10 arcs: |F|max 6.4e-10, then 7.0e-10; each
-        step there costs a Jacobian of ~2 min)."""
+        step there costs a Jacobian of ~2 min). ``polish_crossings`` > 0 (a map with edges, where
+        f jumps: the exact bang-bang map where an arc is born; module docstring): a step that
+        more than doubles |F| is taken anyway that many times, Newton going on from across the
+        edge (where the root may lie); after that, a step that raises |F| is shortened (½, ¼, ⅛,
+        f alone) to stay on the edge's side it has reached; the best point evaluated is
+        returned. E8 200 rev, the jump from ε₁ to the exact map: 1.0e-7 → across → 6.5e-5,
+        7.1e-7, a half step 3.5e-7, 1.8e-11."""
         opt = self.opt
         nF = _norm(F)
         self._note_best(z, nF)
+        best, crossings = (z, J, F, nF), opt.polish_crossings
         for _ in range(opt.max_final):
             if nF <= opt.tol_final:
                 break
-            z_new = z + solve(J, -F, rcond)
+            d = solve(J, -F, rcond)
+            z_new = z + d
             f_new, J_new, _, ok = self._eval(z_new, tau, final=True)
             n_new = _norm(f_new) if ok and np.all(np.isfinite(f_new)) else np.inf
+            if opt.polish_crossings and n_new > nF and not (crossings and n_new > 2.0 * nF):
+                z_new, f_new, J_new, n_new = self._shorter_step(z, d, nF, tau) or (z_new, f_new, J_new, n_new)
             self._note_best(z_new, n_new)
+            if n_new < best[3]:
+                best = (z_new, J_new, f_new, n_new)
             if rcond > 0 and n_new > 0.5 * nF:
                 rcond = 0.0                 # truncated steps no longer gain: Newton from here
                 if n_new >= nF:
                     continue
             elif n_new > 2.0 * nF:
-                break
+                if crossings == 0 or not np.isfinite(n_new):
+                    break
+                crossings -= 1              # across an edge of the map: Newton goes on from there
             elif at_root and n_new > 0.5 * nF and nF <= opt.tol_final * 1e3:
                 if n_new < nF:
                     z, F, J, nF = z_new, f_new, J_new, n_new
                 break
             z, F, J, nF = z_new, f_new, J_new, n_new
+        if opt.polish_crossings and best[3] < nF:
+            z, J, F, nF = best
         return z, J, F, nF
+
+    def _shorter_step(self, z, d, nF, tau):
+        """The first of z + d/2, d/4, d/8 whose |f| (f alone) is below ``nF``, evaluated with its
+        Jacobian: (z, f, J, |f|); None where none is."""
+        for a in (0.5, 0.25, 0.125):
+            f, ok = self._residual(z + a * d, tau)
+            if ok and np.all(np.isfinite(f)) and _norm(f) < nF:
+                f, J, _, ok = self._eval(z + a * d, tau, final=True)
+                if ok and np.all(np.isfinite(f)):
+                    return z + a * d, f, J, _norm(f)
+        return None
 
     def _note_best(self, z, nF):
         """Keep (|F|, z) as the polish's best point where |F| is the least yet (:meth:`_polish`)."""

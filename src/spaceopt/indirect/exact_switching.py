@@ -62,6 +62,13 @@ RESTEP_STEPS = 64          # step cap of y(K_s) stepped from the last step point
 # arcs (E8 500 rev, end-point tolerances: 1e-10 … 2e-10 after 12 polish iterations, the 4×4
 # blend; 7.7e-11 in the spike); the followers' final polish stops here (chain._polish_floor)
 TOL_FINAL = 1e-9
+# The map has edges: an arc whose maximum of S stays below the event threshold is not seen, so
+# where such a flat arc is born f jumps (E8 200 rev, the jump from ε₁: the switch count flips
+# 366 ↔ 368 with steps of 1e-11 and |f| by 5.6e-5; Newton from one side stalled at 1.0e-7, and
+# went on to 9e-12 from across the edge). The final polish may step across an edge this many
+# times (chain._polish_floor; ContinuationOptions.polish_crossings); a second crossing there
+# would have gone back to the stalled side
+POLISH_CROSSINGS = 1
 
 RUNNING, DONE, NO_CROSSING, TOO_MANY_SWITCHES, STEP_LIMIT, INTEGRATION_FAILED = range(6)
 STATUS = ("running", "done", "event without a crossing", "switch list full", "step limit reached",
