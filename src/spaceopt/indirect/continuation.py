@@ -433,6 +433,9 @@ class Continuation:
         Gives up after ``max_corrector`` Newton steps or when no trial contracts. Returns
         (accepted, x, F, ev, |F|, evaluations); on a rejection the reason (the |F| sequence and
         why the corrector gave up) is kept in ``last_rejection`` for the log and the diagnosis.
+        With the chord corrector (``path_residual``), ``residual(x, held)`` evaluates f alone and
+        returns the held evaluation's derivatives (module docstring); ``max_chord`` replaces
+        ``max_corrector``.
         """
         opt = self.opt
         chord = self.path_residual is not None
@@ -455,7 +458,7 @@ class Continuation:
                     return True, x, F, ev, nF, evals
             slow = out is not None and prev is not None and nF > (0.5 if alpha == 1.0 else 1.0 - alpha / 2) * prev
             if slow and not fresh and alpha == 1.0 and nF < prev:
-                # a chord step that reduced |F| without halving it: Newton on, from a fresh J at x
+                # a chord step that reduced |F| without halving it: a fresh J at x, the chord on from it
                 evals += 1
                 out = residual(x)
                 if out is not None:
