@@ -532,17 +532,17 @@ def test_switching_is_read_and_refuses_the_options_of_the_smoothed_route():
         P.case_switching(bad, "e8")
 
 
-def test_corrector_is_read_and_reaches_the_chain_and_the_warm_starts():
+def test_corrector_is_read_and_reaches_the_chain_only():
     """Case option corrector (newton | chord): Newton's leaves the followers' defaults; chord goes
-    into the chain's options and every warm start's (an arclength model step's too); a bad value
-    is a one-line error naming the key."""
+    into the options of the chain from the zero guess, not into the warm starts' (they keep
+    Newton's); a bad value is a one-line error naming the key."""
     assert P.case_corrector(PC, "e8") == PC["cases"]["e8"].get("corrector", "newton")
+    assert P.chain_options(PC, "e8") is None
     pc = copy.deepcopy(PC)
     pc["cases"]["e8"]["corrector"] = "chord"
     assert P.chain_options(pc, "e8").corrector == "chord"
-    assert P.warm_start_options(pc, "e8", model="j2").corrector == "chord"
-    full = P.warm_start_options(pc, "e8", model="g44_moon_sun", n_rev=500)
-    assert isinstance(full, P.ArclengthOptions) and full.corrector == "chord"
+    assert P.warm_start_options(pc, "e8", model="j2") is None
+    assert P.warm_start_options(pc, "e8", model="g44_moon_sun", n_rev=500).corrector == "newton"
     pc["cases"]["e8"]["corrector"] = "broyden"
     with pytest.raises(ConfigError, match=r"perturbed\.cases\.e8\.corrector"):
         P.chain_options(pc, "e8")

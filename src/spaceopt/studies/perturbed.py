@@ -340,8 +340,12 @@ def case_switching(pc: dict, case: str) -> str:
 def case_corrector(pc: dict, case: str) -> str:
     """Case option ``corrector``: 'newton' (the default), a Jacobian at every corrector
     evaluation, or 'chord', the corrector's later steps with the Jacobian of its first and f
-    alone (:mod:`spaceopt.indirect.continuation`), on every path of the case: the chain's and
-    the warm starts'."""
+    alone (:mod:`spaceopt.indirect.continuation`), on the paths of the chain from the zero guess
+    (:func:`chain_options`). The warm starts keep Newton's: their steps converge in one or two
+    corrector evaluations, so the chord saves little, and on the exact map at E8 500 rev the 4×4
+    blend with it stalled at τ 0.6 (the accepted point's update, with the predictor's Jacobian,
+    crossed an edge of the map), and took 152 s with ``accepted_update`` revert against Newton's
+    103 s (docs/perturbed-e6-e7-e8.md, "thirty-seventh session")."""
     value = pc["cases"][case].get("corrector", "newton")
     if value not in CORRECTORS:
         raise ConfigError(f"perturbed.cases.{case}.corrector", value, f"expected one of {', '.join(CORRECTORS)}")
@@ -419,7 +423,7 @@ def warm_start_options(pc: dict, case: str, checkpoint_dir: str = "", model: str
                        n_rev: float | None = None) -> ContinuationOptions | None:
     """Continuation options of the case's warm starts (:func:`warm_start`): case option
     ``warm_step_growth`` ('iterations' | 'residual', :mod:`spaceopt.indirect.continuation`),
-    ``corrector`` (:func:`case_corrector`), the continuation settings ``model_step`` names for ``model`` at ``n_rev``
+    the continuation settings ``model_step`` names for ``model`` at ``n_rev``
     (:func:`case_model_step`; they take precedence) and ``checkpoint_dir`` (paths resumable
     after an interruption, ``ContinuationOptions``); None (the followers' defaults) where none
     is given. Options of an arclength model step are :class:`ArclengthOptions`, so that its
@@ -430,10 +434,7 @@ def warm_start_options(pc: dict, case: str, checkpoint_dir: str = "", model: str
     if growth is not None and growth not in GROWTH:
         raise ConfigError(f"perturbed.cases.{case}.warm_step_growth", growth, f"expected one of {', '.join(GROWTH)}")
     step = case_model_step(cc, model, f"perturbed.cases.{case}", n_rev) if model is not None else {}
-    corrector = case_corrector(pc, case)
-    settings = {**({"step_growth": growth} if growth else {}),
-                **({"corrector": corrector} if corrector != "newton" else {}),
-                **{k: v for k, v in step.items() if k != "path"}}
+    settings = {**({"step_growth": growth} if growth else {}), **{k: v for k, v in step.items() if k != "path"}}
     if not settings and not checkpoint_dir:
         return None
     kind = ArclengthOptions if step.get("path") == "arclength" else ContinuationOptions
