@@ -367,6 +367,30 @@ def e8_chain(n_rev: float, model: str, start=None) -> tuple[dict, object]:
     return rec, ot
 
 
+def _e8_at_eps_blend(pc: dict, model: str, n_rev: float):
+    """The E8 transfer of ``model`` at ``n_rev`` whose smoothing stops at ε₁ = eps_blend, single
+    shooting (the start of the exact route and of the corrector comparison)."""
+    import dataclasses
+
+    from spaceopt.studies import perturbed as P
+
+    eph = P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"])
+    tr = P.transfer_from_config(pc, "e8", model, ephemeris=eph, n_rev=n_rev)
+    return dataclasses.replace(tr, eps_final=tr.eps_blend, path_arcs=1)
+
+
+def _propellant_and_time(sol) -> dict:
+    """m_p (kg) and Δt (days) of an OT solution, from y(K_f) at the end-point tolerances."""
+    import jax.numpy as jnp
+    from spaceopt.indirect import hamiltonians as hm
+    from spaceopt.indirect.shooting import final_state
+
+    yf, _ = final_state(sol.shooting, jnp.asarray(sol.z), 1.0, sol.prm)
+    u = sol.transfer.units()
+    return {"m_p_kg": (1.0 - float(yf[hm.MASS])) * u["mass_kg"],
+            "tof_days": float(yf[hm.TIME]) * u["time_s"] / 86400.0}
+
+
 def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | None = None) -> dict:
     """The E8 route to every model of the case at ``n_rev`` on the exact bang-bang map
     (:mod:`spaceopt.indirect.exact_switching`), each stage timed: the unperturbed chain from the
@@ -379,34 +403,24 @@ def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | No
     same solves where they exist (``results/perturbed/e8``) for comparison. ``corrector``: the
     continuation corrector of every path ('newton' | 'chord', ``ContinuationOptions``).
     ``last_model``: the route stops after that model (no end game unless it is the case's last)."""
-    import dataclasses
-
-    import jax.numpy as jnp
     from spaceopt.indirect import chain
-    from spaceopt.indirect import hamiltonians as hm
     from spaceopt.indirect.free_time import MaximumOptions, maximise_final_mass
-    from spaceopt.indirect.shooting import final_state
     from spaceopt.studies import perturbed as P
 
     pc = _perturbed_config()
-    eph = P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"])
     models = pc["cases"]["e8"]["models"]
     models = models[:models.index(last_model) + 1] if last_model else models
     label = f"bench/e8-exact/n{n_rev:g}"
     options = chain.ContinuationOptions(corrector=corrector)
 
     def transfer(model):
-        tr = P.transfer_from_config(pc, "e8", model, ephemeris=eph, n_rev=n_rev)
-        return dataclasses.replace(tr, eps_final=tr.eps_blend, path_arcs=1)
+        return _e8_at_eps_blend(pc, model, n_rev)
 
     stages, t_route = {}, time.perf_counter()
 
     def record(name, sol, t0, jacobians):
-        yf, _ = final_state(sol.shooting, jnp.asarray(sol.z), 1.0, sol.prm)
-        u = sol.transfer.units()
-        stages[name] = {"wall_time_s": time.perf_counter() - t0, "jacobian_evaluations": jacobians,
-                        "m_p_kg": (1.0 - float(yf[hm.MASS])) * u["mass_kg"],
-                        "tof_days": float(yf[hm.TIME]) * u["time_s"] / 86400.0}
+        m_p_and_tof = _propellant_and_time(sol)
+        stages[name] = {"wall_time_s": time.perf_counter() - t0, "jacobian_evaluations": jacobians, **m_p_and_tof}
         print(f"[{label}] {name}: {stages[name]}", file=sys.stderr, flush=True)
 
     out = {"n_rev": n_rev, "corrector": corrector, "stages": stages}
@@ -446,18 +460,12 @@ def corrector_comparison(n_rev: float) -> dict:
     """E8 unperturbed LP → OT (the (3.3.1) blend to ε₁, the case's homotopy path) at ``n_rev``
     with each corrector (``ContinuationOptions.corrector``), one after the other from the same
     LP solution, both maps (full evaluation and residual alone) compiled beforehand."""
-    import dataclasses
-
     import jax.numpy as jnp
     from spaceopt.indirect import chain
-    from spaceopt.indirect import hamiltonians as hm
-    from spaceopt.indirect.shooting import final_state, residual, shoot
-    from spaceopt.studies import perturbed as P
+    from spaceopt.indirect.shooting import residual, shoot
 
     pc = _perturbed_config()
-    eph = P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"])
-    tr = P.transfer_from_config(pc, "e8", "unperturbed", ephemeris=eph, n_rev=n_rev)
-    tr = dataclasses.replace(tr, eps_final=tr.eps_blend, path_arcs=1)
+    tr = _e8_at_eps_blend(pc, "unperturbed", n_rev)
     path = pc["numerics"].get("homotopy_path", "arclength")
     lp = chain.solve_lp(tr, label=f"bench/corrector/n{n_rev:g}/lp")
     sh = chain.shooting_for("ot", "lp", tr)
@@ -471,13 +479,9 @@ def corrector_comparison(n_rev: float) -> dict:
         ot = chain.solve_ot(lp, tr.thrust, chain.ContinuationOptions(corrector=corrector),
                             label=f"bench/corrector/n{n_rev:g}/{corrector}", path=path)
         wall = time.perf_counter() - t0
-        yf, _ = final_state(ot.shooting, jnp.asarray(ot.z), 1.0, ot.prm)
-        u = tr.units()
         out[corrector] = {"wall_time_s": wall, "jacobian_evaluations": ot.stats["jacobian_evaluations"],
                           "residual_evaluations": ot.stats["residual_evaluations"], "steps": ot.stats["steps"],
-                          "rejected_steps": ot.stats["rejected_steps"],
-                          "m_p_kg": (1.0 - float(yf[hm.MASS])) * u["mass_kg"],
-                          "tof_days": float(yf[hm.TIME]) * u["time_s"] / 86400.0}
+                          "rejected_steps": ot.stats["rejected_steps"], **_propellant_and_time(ot)}
     out["wall_time_ratio_newton_over_chord"] = out["newton"]["wall_time_s"] / out["chord"]["wall_time_s"]
     return out
 

@@ -184,9 +184,10 @@ def _newton_at_end(sh: Shooting, z0, prm, label, options):
     single = lambda z, tau: shoot(sh, jnp.asarray(z), tau, prm)  # noqa: E731
     # a polish distinct from the path's map: the follower then re-evaluates f at τ = 1 instead of
     # taking its Newton homotopy's F = f − b, which is 0 where it starts
-    at_end = lambda z, tau: residual(sh, jnp.asarray(z), tau, prm)  # noqa: E731
-    polish = Continuation(single, _polish_floor(sh, path_options("tau", options, label)),
-                          polish=lambda z, tau: single(z, tau), residual=at_end, path_residual=at_end)
+    # a polish alone: no path, so no corrector steps (Newton's, whatever the caller's options)
+    opt = dataclasses.replace(_polish_floor(sh, path_options("tau", options, label)), corrector="newton")
+    polish = Continuation(single, opt, polish=lambda z, tau: single(z, tau),
+                          residual=lambda z, tau: residual(sh, jnp.asarray(z), tau, prm))
     return _follow(polish, z0, "tau", tau0=1.0)
 
 

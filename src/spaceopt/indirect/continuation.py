@@ -257,7 +257,7 @@ class Continuation:
             raise ValueError(f"corrector {self.opt.corrector!r}: expected one of {CORRECTORS}")
         if self.opt.corrector == "chord" and path_residual is None:
             raise ValueError("corrector 'chord' needs path_residual (f at the path tolerances, no derivatives)")
-        self.path_residual = path_residual if self.opt.corrector == "chord" else None
+        self.path_residual = path_residual
         self.stats = ContinuationStats()
         self._h_cap = float("inf")      # 0.8 of the last rejected step ('residual' growth)
         self._t_start = time.perf_counter()     # run() restarts it (_elapsed)
@@ -404,7 +404,7 @@ class Continuation:
     def _grow(self, h, iters, nF, h_max):
         """The step after an accepted step h whose corrector used ``iters`` evaluations and whose
         first evaluation (the predicted point, when iters = 1) had residual ``nF``."""
-        if self.path_residual is not None:      # chord: the evaluations after the first cost no Jacobian
+        if self.opt.corrector == "chord":      # the evaluations after the first cost no Jacobian
             iters = max(1, iters - 1)
         factor = ITERATION_GROWTH.get(iters, 0.8)
         if self.opt.step_growth == "residual":
@@ -433,12 +433,12 @@ class Continuation:
         Gives up after ``max_corrector`` Newton steps or when no trial contracts. Returns
         (accepted, x, F, ev, |F|, evaluations); on a rejection the reason (the |F| sequence and
         why the corrector gave up) is kept in ``last_rejection`` for the log and the diagnosis.
-        With the chord corrector (``path_residual``), ``residual(x, held)`` evaluates f alone and
+        With the chord corrector, ``residual(x, held)`` evaluates f alone and
         returns the held evaluation's derivatives (module docstring); ``max_chord`` replaces
         ``max_corrector``.
         """
         opt = self.opt
-        chord = self.path_residual is not None
+        chord = opt.corrector == "chord"
         limit = opt.max_chord if chord else opt.max_corrector
         prev = F = ev = nF = x_prev = d = held = None
         norms, why = [], f"|F| > {opt.tol_step:g} after {limit} iterations"
