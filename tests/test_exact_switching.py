@@ -3,6 +3,7 @@ under J2: switches, Jacobian, τ column, Newton from the smoothed root, chain.to
 import dataclasses
 from pathlib import Path
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -151,3 +152,24 @@ def test_an_exact_solution_is_sampled_saved_and_read_back(smoothed, tmp_path):
     assert back.shooting.switching == "exact" and float(back.prm["eps_final"]) == 0.0
     f, ok = residual(back.shooting, jnp.asarray(back.z), 1.0, back.prm)
     assert bool(ok) and float(jnp.max(jnp.abs(f))) < 1e-9
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_an_arc_shorter_than_a_sample_interval_is_found_from_its_birth(monkeypatch, sign):
+    """Pass 1 on a toy field u' = 1 with S = ±(c − (u − 2)²): an arc of the other throttle on
+    [2 − √c, 2 + √c] is found for every c > 0 down to 1e-14 (width 2e-7, far below the sample
+    spacing of Dopri8's long steps on this field), at the right place, and not for c < 0: the
+    switch list, and so f, moves continuously where an arc is born."""
+    monkeypatch.setattr(X, "field", lambda model, K, y, tau, prm, delta: jnp.ones_like(y))
+    monkeypatch.setattr(X, "switching", lambda model, K, y, tau, prm: sign * (prm - (y[0] - 2.0) ** 2))
+    pass1 = jax.jit(lambda c: X.switches(None, jnp.zeros(1), 5.0, 1.0, c, 1e-12, 1e-13, 1000))
+    for c in (0.25, 1e-6, 1e-10, 1e-14, -1e-14, -1e-6):
+        out = pass1(c)
+        assert X.STATUS[int(out["status"])] == "done"
+        assert float(out["d0"]) == float(sign < 0)
+        n = int(out["n_switches"])
+        if c < 0:
+            assert n == 0, c
+        else:
+            assert n == 2, c
+            np.testing.assert_allclose(out["Ks"][:2], [2 - c**0.5, 2 + c**0.5], rtol=0, atol=1e-12)

@@ -105,22 +105,81 @@ def _segment(model, K, Kf, y, delta, noise, tau, prm, rtol, atol, segment_steps)
         event=diffrax.Event(wrong_side))
 
 
-def _crossing(model, sol, K, Kend, delta, tau, prm):
-    """(crossed, K_a, K_b): the first sample interval of the segment where the throttle passes
-    from the right side to the wrong side of S = 0."""
+def _side(model, sol, delta, tau, prm):
+    """k ↦ ((2δ − 1) S, its K derivative) on the segment's dense output: positive on the
+    throttle's own side of S = 0."""
+    def side(k):
+        return (2.0 * delta - 1.0) * switching(model, k, sol.evaluate(k), tau, prm)
+    return lambda k: jax.jvp(side, (k,), (jnp.ones_like(k),))
+
+
+def _extremum(slope, a, b, minimum):
+    """K of the extremum in [a, b] where ``slope`` changes sign (− to + for a minimum), by bisection."""
+    def halve(_, ab):
+        m = 0.5 * (ab[0] + ab[1])
+        d = slope(m)
+        before = jnp.where(minimum, d < 0, d > 0)
+        return jnp.where(before, m, ab[0]), jnp.where(before, ab[1], m)
+    a, b = jax.lax.fori_loop(0, BISECTIONS, halve, (a, b))
+    return 0.5 * (a + b)
+
+
+def _crossing(model, sol, K, Kend, delta, tau, prm, samples_per_step=SAMPLES_PER_STEP):
+    """(crossed, K_a, K_b): the first place after K where the throttle passes from the right
+    side of S = 0 (K_a) to the wrong side (K_b).
+
+    Three ways, the earliest taken: (i) an arc born at K that ends before the first sample (the
+    side rises from K, the first sample lies past its maximum and on the wrong side); (ii) a
+    sample on the wrong side after one on the right side; (iii) between two samples on the right
+    side, a minimum of the side that reaches zero (an arc of the other throttle shorter than a
+    sample interval: screened by the tangents at the two samples, which bound a convex side from
+    below, then located by bisection on the slope). Without (i) and (iii) an arc is seen only once
+    a sample falls in it, so f jumps where an arc is born (E8 200 rev: 5.6e-5 at an arc 0.072 rad
+    long); with them it is seen from the moment the extremum of S reaches zero."""
+    side_slope = _side(model, sol, delta, tau, prm)
+    slope = lambda k: side_slope(k)[1]  # noqa: E731
     ts = sol.interpolation.ts
     a, b = ts[:-1], ts[1:]
     valid = b <= Kend                                     # steps taken (the padding is +inf)
-    frac = jnp.arange(1, SAMPLES_PER_STEP + 1) / SAMPLES_PER_STEP
+    frac = jnp.arange(1, samples_per_step + 1) / samples_per_step
     ks = jnp.where(valid[:, None], a[:, None] + (b - a)[:, None] * frac[None, :], Kend).ravel()
-    valid = jnp.repeat(valid, SAMPLES_PER_STEP)
-    side = (2.0 * delta - 1.0) * jax.vmap(lambda k: switching(model, k, sol.evaluate(k), tau, prm))(ks)
-    right = valid & (side > 0)
+    valid = jnp.repeat(valid, samples_per_step)
+    s, d = jax.vmap(side_slope)(ks)
     idx = jnp.arange(ks.size)
+    # (ii) a wrong-side sample after a right-side one (samples before the first right-side one
+    # lie in the integration noise just after a switch)
+    right = valid & (s > 0)
     first_right = jnp.where(jnp.any(right), jnp.argmax(right), ks.size)
-    below = valid & (side <= 0) & (idx > first_right)
-    j = jnp.argmax(below)
-    return jnp.any(below), jnp.where(j > 0, ks[j - 1], K), ks[j]
+    below = valid & (s <= 0) & (idx > first_right)
+    j = jnp.where(jnp.any(below), jnp.argmax(below), ks.size)
+    # (iii) candidates: a minimum between two right-side samples, before the sample crossing,
+    # whose tangent lines meet at or below half the smaller sample
+    s0, s1, d0, d1, h = s[:-1], s[1:], d[:-1], d[1:], ks[1:] - ks[:-1]
+    meet = s0 + d0 * (s1 - s0 - d1 * h) / jnp.where(d0 < d1, d0 - d1, -1.0)
+    hidden = (right[:-1] & right[1:] & (d0 < 0) & (d1 > 0) & (meet <= 0.5 * jnp.minimum(s0, s1))
+              & (idx[:-1] + 1 < j))
+
+    def next_candidate(c):
+        start, _, _, _ = c
+        i = jnp.argmax(hidden & (idx[:-1] >= start))
+        km = _extremum(slope, ks[i], ks[i + 1], True)
+        return i + 1, side_slope(km)[0] <= 0, ks[i], km
+
+    def more(c):
+        return ~c[1] & jnp.any(hidden & (idx[:-1] >= c[0]))
+    _, found, Ka_hidden, Kb_hidden = jax.lax.while_loop(more, next_candidate, (0, False, K, K))
+    # (i) the arc born at K ends before the first sample
+    dK = side_slope(K)[1]
+    short = valid[0] & (s[0] <= 0) & (dK > 0) & (d[0] < 0)
+
+    def short_arc(_):
+        km = _extremum(slope, K, ks[0], False)
+        return km, jnp.where(side_slope(km)[0] > 0, ks[0], km)
+    Ka_short, Kb_short = jax.lax.cond(short, short_arc, lambda _: (K, K), None)
+    Ka_plain, Kb_plain = jnp.where(j > 0, ks[j - 1], K), ks[jnp.minimum(j, ks.size - 1)]
+    Ka = jnp.where(short, Ka_short, jnp.where(found, Ka_hidden, Ka_plain))
+    Kb = jnp.where(short, Kb_short, jnp.where(found, Kb_hidden, Kb_plain))
+    return short | found | (j < ks.size), Ka, Kb
 
 
 def _locate(model, sol, Ka, Kb, delta, tau, prm, rtol, atol):
@@ -143,7 +202,8 @@ def _locate(model, sol, Ka, Kb, delta, tau, prm, rtol, atol):
     return Ks, out.ys[-1], out.stats["num_steps"]
 
 
-def switches(model, y0, Kf, tau, prm, rtol, atol, max_steps, segment_steps=SEGMENT_STEPS):
+def switches(model, y0, Kf, tau, prm, rtol, atol, max_steps, segment_steps=SEGMENT_STEPS,
+             samples_per_step=SAMPLES_PER_STEP):
     """Pass 1: a dict with δ on the first arc ``d0``, the switch points ``Ks`` (the first
     ``n_switches`` entries of a MAX_SWITCHES array, the rest K_f), y(K_f) ``yf``, ``steps``
     and ``status`` (an index into STATUS)."""
@@ -154,7 +214,7 @@ def switches(model, y0, Kf, tau, prm, rtol, atol, max_steps, segment_steps=SEGME
         sol = _segment(model, K, Kf, y, delta, noise, tau, prm, rtol, atol, segment_steps)
         Kend, yend = sol.ts[-1], sol.ys[-1]
         steps = steps + sol.stats["num_steps"]
-        crossed, Ka, Kb = _crossing(model, sol, K, Kend, delta, tau, prm)
+        crossed, Ka, Kb = _crossing(model, sol, K, Kend, delta, tau, prm, samples_per_step)
 
         def switch(_):
             Ks_, ys_, st = _locate(model, sol, Ka, Kb, delta, tau, prm, rtol, atol)
