@@ -401,7 +401,9 @@ def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | No
     on the exact map (the case's settings; its lift across branches needs a smoothing ε and is
     off). Per stage: wall time, Jacobians, m_p, Δt; the route's total; the DAG's artifacts of the
     same solves where they exist (``results/perturbed/e8``) for comparison. ``corrector``: the
-    continuation corrector of every path ('newton' | 'chord', ``ContinuationOptions``).
+    continuation corrector of the chain from the zero guess ('newton' | 'chord',
+    ``ContinuationOptions``); the warm starts keep Newton's, as the case option does
+    (``perturbed.case_corrector``).
     ``last_model``: the route stops after that model (no end game unless it is the case's last)."""
     from spaceopt.indirect import chain
     from spaceopt.indirect.free_time import MaximumOptions, maximise_final_mass
@@ -435,10 +437,10 @@ def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | No
         for i, model in enumerate(models[1:]):
             tr, t0 = transfer(model), time.perf_counter()
             if i == 0:
-                sol = P.perturb_from_unperturbed(sol, tr, f"{label}/{model} on", path="tau", options=options)
+                sol = P.perturb_from_unperturbed(sol, tr, f"{label}/{model} on", path="tau")
             else:
                 sol = chain.continue_in_model(P.warm_start_integration(sol, tr), tr.params(thrust=sol.thrust_N),
-                                              options, label=f"{label}/{model}")
+                                              label=f"{label}/{model}")
                 sol.transfer = tr
             record(f"{model} exact", sol, t0, _jacobians(sol.stats))
         out["converged"] = True
