@@ -14,9 +14,12 @@ force-model blend 'model', the perturbation switch 'pert', a parameter path 'par
    segments of at most ``SEGMENT_STEPS`` Dopri8 steps; a diffrax event stops a segment at the
    first step end where (2δ − 1) S < −η (the throttle on the wrong side; η = ``S_NOISE``, or
    twice |S| at the arc's start where the stepped state misses S = 0 by more). S is sampled
-   on the segment's dense output (8th order), ``SAMPLES_PER_STEP`` points in every step, so an
-   arc shorter than a step (S across zero and back between two step ends, which the event cannot
-   see) is caught too. The first sample on the wrong side after one on the right side brackets the
+   on the segment's dense output (8th order), ``SAMPLES_PER_STEP`` points in every step, with its
+   K derivative (forward mode through the interpolant), so an arc shorter than a step (S across
+   zero and back between two step ends, which the event cannot see) is caught too: by a sample on
+   the wrong side, or, for an arc shorter than a sample interval, by the extremum of S between
+   two samples reaching zero (:func:`_crossing`). An arc is thus seen from its birth (the
+   extremum at zero), not once a sample first falls in it. The first such place brackets the
    switch K_s, which bisection on the interpolant locates; y(K_s) is then stepped from the last
    accepted step point before K_s (the interpolant's own error, summed over a thousand switches,
    moved t(K_f) by 3e-5 TU at E8 500). diffrax's own event root find was tried in the spike and
@@ -33,10 +36,11 @@ force-model blend 'model', the perturbation switch 'pert', a parameter path 'par
 Both passes run inside one compiled ``lax.while_loop`` each. Written by hand because diffrax
 integrates one smooth field per solve: the arc loop, the bracketing and the saltation are the
 standard treatment of a field discontinuous across a switching surface. A switch where S is
-tangent to zero (∂S/∂K + ∇_y S · g⁻ → 0: an arc being born or dying) makes dK_s/dz unbounded and
-the map not differentiable; nothing here detects that, and the success flag stays true. Paths
-through such places crawl (E8 500, the 4×4 → full blend near τ 0.17): that is what the
-smoothing is for, and the caller's choice (case option ``switching``).
+tangent to zero (∂S/∂K + ∇_y S · g⁻ → 0: an arc being born or dying) makes dK_s/dz unbounded:
+the map is continuous there but not differentiable (an arc's width grows as the square root of
+its S extremum), nothing here detects that, and the success flag stays true. Paths through such
+places crawl (E8 500, the 4×4 → full blend near τ 0.17): that is what the smoothing is for, and
+the caller's choice (case option ``switching``).
 The spike and its measurements: docs/experiments/e8_exact_switching.py.
 """
 from __future__ import annotations
@@ -62,12 +66,13 @@ RESTEP_STEPS = 64          # step cap of y(K_s) stepped from the last step point
 # arcs (E8 500 rev, end-point tolerances: 1e-10 … 2e-10 after 12 polish iterations, the 4×4
 # blend; 7.7e-11 in the spike); the followers' final polish stops here (chain._polish_floor)
 TOL_FINAL = 1e-9
-# The map has edges: an arc whose maximum of S stays below the event threshold is not seen, so
-# where such a flat arc is born f jumps (E8 200 rev, the jump from ε₁: the switch count flips
-# 366 ↔ 368 with steps of 1e-11 and |f| by 5.6e-5; Newton from one side stalled at 1.0e-7, and
-# went on to 9e-12 from across the edge). The final polish may step across an edge this many
-# times (chain._polish_floor; ContinuationOptions.polish_crossings); a second crossing there
-# would have gone back to the stalled side
+# The map has edges where an arc is born flat: its width grows as √(2 S_max / |S''|), and where
+# S'' is small the integration error of S (1e-12 … 1e-10) decides a width of hundredths of a
+# radian (E8 200 rev, the jump from ε₁: the switch count flipped 366 ↔ 368 with steps of 1e-11 and
+# |f| by 5.6e-5 at an arc 0.072 rad long; Newton from one side stalled at 1.0e-7, and went on to
+# 9e-12 from across the edge). Arcs born sharp but shorter than a sample interval no longer make
+# edges (_crossing). The final polish may step across an edge this many times
+# (chain._polish_floor; ContinuationOptions.polish_crossings)
 POLISH_CROSSINGS = 1
 
 RUNNING, DONE, NO_CROSSING, TOO_MANY_SWITCHES, STEP_LIMIT, INTEGRATION_FAILED = range(6)
@@ -134,8 +139,9 @@ def _crossing(model, sol, K, Kend, delta, tau, prm, samples_per_step=SAMPLES_PER
     side, a minimum of the side that reaches zero (an arc of the other throttle shorter than a
     sample interval: screened by the tangents at the two samples, which bound a convex side from
     below, then located by bisection on the slope). Without (i) and (iii) an arc is seen only once
-    a sample falls in it, so f jumps where an arc is born (E8 200 rev: 5.6e-5 at an arc 0.072 rad
-    long); with them it is seen from the moment the extremum of S reaches zero."""
+    a sample falls in it, so f jumps where an arc shorter than a sample interval is born (and the
+    segment after a switch fails where the new arc ends before its first sample); with them an arc
+    is seen from the moment the extremum of S reaches zero."""
     side_slope = _side(model, sol, delta, tau, prm)
     slope = lambda k: side_slope(k)[1]  # noqa: E731
     ts = sol.interpolation.ts
