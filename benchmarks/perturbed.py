@@ -397,13 +397,14 @@ def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | No
     zero guess to ε₁ = eps_blend only (no descent in ε), the exact unperturbed extremal by Newton
     (``chain.to_exact``); the first perturbed model switched on by τ on the exact map
     (``perturbed.perturb_from_unperturbed``); each later force model by the model blend on the exact map
-    (``chain.continue_in_model``, single shooting, τ); the free-time end game of the last model
+    (``chain.continue_in_model``, single shooting); the free-time end game of the last model
     on the exact map (the case's settings; its lift across branches needs a smoothing ε and is
     off). Per stage: wall time, Jacobians, m_p, Δt; the route's total; the DAG's artifacts of the
     same solves where they exist (``results/perturbed/e8``) for comparison. ``corrector``: the
     continuation corrector of the chain from the zero guess ('newton' | 'chord',
     ``ContinuationOptions``); the warm starts keep Newton's, as the case option does
-    (``perturbed.case_corrector``).
+    (``perturbed.case_corrector``). Each model blend follows the case's ``model_step`` for its
+    model (the full model's: arclength, truncated-SVD steps), as ``config/e8_exact.yaml`` does.
     ``last_model``: the route stops after that model (no end game unless it is the case's last)."""
     from spaceopt.indirect import chain
     from spaceopt.indirect.free_time import MaximumOptions, maximise_final_mass
@@ -439,8 +440,10 @@ def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | No
             if i == 0:
                 sol = P.perturb_from_unperturbed(sol, tr, f"{label}/{model} on", path="tau")
             else:
+                step = P.case_model_step(pc["cases"]["e8"], model, "perturbed.cases.e8", n_rev)
                 sol = chain.continue_in_model(P.warm_start_integration(sol, tr), tr.params(thrust=sol.thrust_N),
-                                              label=f"{label}/{model}")
+                                              P.warm_start_options(pc, "e8", "", model, n_rev),
+                                              label=f"{label}/{model}", path=step.get("path", "tau"))
                 sol.transfer = tr
             record(f"{model} exact", sol, t0, _jacobians(sol.stats))
         out["converged"] = True

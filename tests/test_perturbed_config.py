@@ -1293,13 +1293,16 @@ def test_a_model_carries_over_another_models_bound_only_where_both_are_checked_f
 
 def test_the_exact_e8_profile_validates_and_selects_the_exact_route():
     """config/e8_exact.yaml over the study config (as --configfile merges it): schema-valid, E8 on
-    the exact map, its model steps single shooting in τ, no smoothing ε for the warm starts."""
+    the exact map, its model steps single shooting, the full model's in arclength with
+    truncated-SVD steps (the smoothed route's model_step), no smoothing ε for the warm starts."""
     import jsonschema
     over = yaml.safe_load((ROOT / "config/e8_exact.yaml").read_text())["perturbed"]["cases"]["e8"]
     pc = copy.deepcopy(PC)
     pc["cases"]["e8"].update(over)
     jsonschema.validate(pc, yaml.safe_load((ROOT / "config/schema/perturbed.schema.yaml").read_text()))
     assert P.case_switching(pc, "e8") == "exact"
-    assert all(step["arcs"] == 1 and step["path"] == "tau" for step in P.e8_model_steps(pc))
+    steps = {step["model"]: step for step in P.e8_model_steps(pc)}
+    assert all(step["arcs"] == 1 for step in steps.values()) and steps["g44"]["path"] == "tau"
+    assert steps["g44_moon_sun"]["path"] == "arclength" and steps["g44_moon_sun"]["step_rcond"] > 0
     kw = P.warm_start_kwargs(pc, "e8", "g44_moon_sun", n_rev=500)
     assert kw["eps_smooth"] is None and kw["model_step_eps"] is None
