@@ -39,8 +39,11 @@ standard treatment of a field discontinuous across a switching surface. A switch
 tangent to zero (∂S/∂K + ∇_y S · g⁻ → 0: an arc being born or dying) makes dK_s/dz unbounded:
 the map is continuous there but not differentiable (an arc's width grows as the square root of
 its S extremum), nothing here detects that, and the success flag stays true. Paths through such
-places crawl (E8 500, the 4×4 → full blend near τ 0.17): that is what the smoothing is for, and
-the caller's choice (case option ``switching``).
+places may crawl: that is what the smoothing is for, and the caller's choice (case option
+``switching``). (The E8 500 4×4 → full blend's crawl near τ 0.17, first read as such a place, is
+not one: the switch count stays fixed there while Newton diverges, cond(∂f/∂z) 1.5e7; the
+case's truncated-SVD steps take it through; docs/perturbed-e6-e7-e8.md, "thirty-eighth
+session".)
 The spike and its measurements: docs/experiments/e8_exact_switching.py.
 """
 from __future__ import annotations
