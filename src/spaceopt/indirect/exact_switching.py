@@ -69,13 +69,14 @@ RESTEP_STEPS = 64          # step cap of y(K_s) stepped from the last step point
 # arcs (E8 500 rev, end-point tolerances: 1e-10 … 2e-10 after 12 polish iterations, the 4×4
 # blend; 7.7e-11 in the spike); the followers' final polish stops here (chain._polish_floor)
 TOL_FINAL = 1e-9
-# The map has edges where an arc is born flat: its width grows as √(2 S_max / |S''|), and where
-# S'' is small the integration error of S (1e-12 … 1e-10) decides a width of hundredths of a
-# radian (E8 200 rev, the jump from ε₁: the switch count flipped 366 ↔ 368 with steps of 1e-11 and
-# |f| by 5.6e-5 at an arc 0.072 rad long; Newton from one side stalled at 1.0e-7, and went on to
-# 9e-12 from across the edge). Arcs born sharp but shorter than a sample interval no longer make
-# edges (_crossing). The final polish may step across an edge this many times
-# (chain._polish_floor; ContinuationOptions.polish_crossings)
+# Before _crossing bracketed arcs shorter than a sample interval, the map had edges: E8 200 rev,
+# the jump from ε₁, the switch count flipped 366 ↔ 368 with steps of 1e-11 and |f| by 5.6e-5, as
+# the samples fell in or beside an arc 0.072 rad wide (S maximum 5.8e-5, S'' −0.091, at K 885.9);
+# Newton from one side stalled at 1.0e-7. At 15 random perturbations of 1e-11 of that root the old
+# pass 1 gave 366 switches 10 times (|f| up to 5e-5), this one 368 every time (|f| ≤ 1.4e-10).
+# The final polish may still step across an edge this many times (chain._polish_floor;
+# ContinuationOptions.polish_crossings), for what is left: an arc born flat, whose existence the
+# integration error of S decides
 POLISH_CROSSINGS = 1
 
 RUNNING, DONE, NO_CROSSING, TOO_MANY_SWITCHES, STEP_LIMIT, INTEGRATION_FAILED = range(6)
@@ -142,9 +143,10 @@ def _crossing(model, sol, K, Kend, delta, tau, prm, samples_per_step=SAMPLES_PER
     side, a minimum of the side that reaches zero (an arc of the other throttle shorter than a
     sample interval: screened by the tangents at the two samples, which bound a convex side from
     below, then located by bisection on the slope). Without (i) and (iii) an arc is seen only once
-    a sample falls in it, so f jumps where an arc shorter than a sample interval is born (and the
-    segment after a switch fails where the new arc ends before its first sample); with them an arc
-    is seen from the moment the extremum of S reaches zero."""
+    a sample falls in it, so f jumps as the samples move in or beside an arc shorter than a sample
+    interval (E8 200 rev: an arc 0.072 rad wide, |f| 5e-5 apart), and the segment after a switch
+    fails where the new arc ends before its first sample; with them an arc is seen from the moment
+    the extremum of S reaches zero."""
     side_slope = _side(model, sol, delta, tau, prm)
     slope = lambda k: side_slope(k)[1]  # noqa: E731
     ts = sol.interpolation.ts
