@@ -440,10 +440,9 @@ def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | No
             if i == 0:
                 sol = P.perturb_from_unperturbed(sol, tr, f"{label}/{model} on", path="tau")
             else:
-                step = P.case_model_step(pc["cases"]["e8"], model, "perturbed.cases.e8", n_rev)
+                kw = P.warm_start_kwargs(pc, "e8", model, n_rev=n_rev)
                 sol = chain.continue_in_model(P.warm_start_integration(sol, tr), tr.params(thrust=sol.thrust_N),
-                                              P.warm_start_options(pc, "e8", "", model, n_rev),
-                                              label=f"{label}/{model}", path=step.get("path", "tau"))
+                                              kw["options"], label=f"{label}/{model}", path=kw["model_path"])
                 sol.transfer = tr
             record(f"{model} exact", sol, t0, _jacobians(sol.stats))
         out["converged"] = True

@@ -115,25 +115,26 @@ def _segment(model, K, Kf, y, delta, noise, tau, prm, rtol, atol, segment_steps)
 
 
 def _side(model, sol, delta, tau, prm):
-    """k ↦ ((2δ − 1) S, its K derivative) on the segment's dense output: positive on the
-    throttle's own side of S = 0."""
-    def side(k):
-        return (2.0 * delta - 1.0) * switching(model, k, sol.evaluate(k), tau, prm)
-    return lambda k: jax.jvp(side, (k,), (jnp.ones_like(k),))
+    """k ↦ (2δ − 1) S on the segment's dense output: positive on the throttle's own side of S = 0."""
+    return lambda k: (2.0 * delta - 1.0) * switching(model, k, sol.evaluate(k), tau, prm)
 
 
-def _extremum(slope, a, b, minimum):
-    """K of the extremum in [a, b] where ``slope`` changes sign (− to + for a minimum), by bisection."""
+def _bisect(before, a, b):
+    """The point of [a, b] where ``before`` turns from true to false, by ``BISECTIONS`` halvings."""
     def halve(_, ab):
         m = 0.5 * (ab[0] + ab[1])
-        d = slope(m)
-        before = jnp.where(minimum, d < 0, d > 0)
-        return jnp.where(before, m, ab[0]), jnp.where(before, ab[1], m)
+        ok = before(m)
+        return jnp.where(ok, m, ab[0]), jnp.where(ok, ab[1], m)
     a, b = jax.lax.fori_loop(0, BISECTIONS, halve, (a, b))
     return 0.5 * (a + b)
 
 
-def _crossing(model, sol, K, Kend, delta, tau, prm, samples_per_step=SAMPLES_PER_STEP):
+def _extremum(slope, a, b, minimum):
+    """K of the extremum in [a, b] where ``slope`` changes sign (− to + for a minimum)."""
+    return _bisect(lambda m: slope(m) < 0 if minimum else slope(m) > 0, a, b)
+
+
+def _crossing(model, sol, K, Kend, delta, tau, prm):
     """(crossed, K_a, K_b): the first place after K where the throttle passes from the right
     side of S = 0 (K_a) to the wrong side (K_b).
 
@@ -147,14 +148,15 @@ def _crossing(model, sol, K, Kend, delta, tau, prm, samples_per_step=SAMPLES_PER
     interval (E8 200 rev: an arc 0.072 rad wide, |f| 5e-5 apart), and the segment after a switch
     fails where the new arc ends before its first sample; with them an arc is seen from the moment
     the extremum of S reaches zero."""
-    side_slope = _side(model, sol, delta, tau, prm)
+    side = _side(model, sol, delta, tau, prm)
+    side_slope = lambda k: jax.jvp(side, (k,), (jnp.ones_like(k),))  # noqa: E731
     slope = lambda k: side_slope(k)[1]  # noqa: E731
     ts = sol.interpolation.ts
     a, b = ts[:-1], ts[1:]
     valid = b <= Kend                                     # steps taken (the padding is +inf)
-    frac = jnp.arange(1, samples_per_step + 1) / samples_per_step
+    frac = jnp.arange(1, SAMPLES_PER_STEP + 1) / SAMPLES_PER_STEP
     ks = jnp.where(valid[:, None], a[:, None] + (b - a)[:, None] * frac[None, :], Kend).ravel()
-    valid = jnp.repeat(valid, samples_per_step)
+    valid = jnp.repeat(valid, SAMPLES_PER_STEP)
     s, d = jax.vmap(side_slope)(ks)
     idx = jnp.arange(ks.size)
     # (ii) a wrong-side sample after a right-side one (samples before the first right-side one
@@ -195,15 +197,8 @@ def _crossing(model, sol, K, Kend, delta, tau, prm, samples_per_step=SAMPLES_PER
 
 def _locate(model, sol, Ka, Kb, delta, tau, prm, rtol, atol):
     """K_s by bisection on the dense output, and y(K_s) stepped from the last step point before it."""
-    def right_side(k):
-        return (2.0 * delta - 1.0) * switching(model, k, sol.evaluate(k), tau, prm) > 0
-
-    def halve(_, ab):
-        m = 0.5 * (ab[0] + ab[1])
-        ok = right_side(m)
-        return jnp.where(ok, m, ab[0]), jnp.where(ok, ab[1], m)
-    a, b = jax.lax.fori_loop(0, BISECTIONS, halve, (Ka, Kb))
-    Ks = 0.5 * (a + b)
+    side = _side(model, sol, delta, tau, prm)
+    Ks = _bisect(lambda k: side(k) > 0, Ka, Kb)
     ts = sol.interpolation.ts
     tj = ts[jnp.maximum(jnp.searchsorted(ts, Ks, side="right") - 1, 0)]
     out = diffrax.diffeqsolve(
@@ -213,8 +208,7 @@ def _locate(model, sol, Ka, Kb, delta, tau, prm, rtol, atol):
     return Ks, out.ys[-1], out.stats["num_steps"]
 
 
-def switches(model, y0, Kf, tau, prm, rtol, atol, max_steps, segment_steps=SEGMENT_STEPS,
-             samples_per_step=SAMPLES_PER_STEP):
+def switches(model, y0, Kf, tau, prm, rtol, atol, max_steps, segment_steps=SEGMENT_STEPS):
     """Pass 1: a dict with δ on the first arc ``d0``, the switch points ``Ks`` (the first
     ``n_switches`` entries of a MAX_SWITCHES array, the rest K_f), y(K_f) ``yf``, ``steps``
     and ``status`` (an index into STATUS)."""
@@ -225,7 +219,7 @@ def switches(model, y0, Kf, tau, prm, rtol, atol, max_steps, segment_steps=SEGME
         sol = _segment(model, K, Kf, y, delta, noise, tau, prm, rtol, atol, segment_steps)
         Kend, yend = sol.ts[-1], sol.ys[-1]
         steps = steps + sol.stats["num_steps"]
-        crossed, Ka, Kb = _crossing(model, sol, K, Kend, delta, tau, prm, samples_per_step)
+        crossed, Ka, Kb = _crossing(model, sol, K, Kend, delta, tau, prm)
 
         def switch(_):
             Ks_, ys_, st = _locate(model, sol, Ka, Kb, delta, tau, prm, rtol, atol)
