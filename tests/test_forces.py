@@ -163,6 +163,43 @@ def test_model_terms_and_frames(full):
     assert np.allclose(np.asarray(Fo.perturbing_acceleration(r, t, full)), total, rtol=1e-15, atol=0)
 
 
+@pytest.mark.parametrize("frm_cfg, to_cfg, shared", [
+    ({"geopotential": {"degree": 4, "order": 4}}, None, ("geopotential",)),        # E8's 4x4 -> full
+    ({"geopotential": "j2"}, None, ()),                                               # J2 -> full
+    ({"geopotential": "j2", "third_bodies": ["sun"]}, None, ("sun",)),
+    (None, {"geopotential": {"degree": 4, "order": 4}}, ("geopotential",)),         # full -> 4x4
+])
+def test_model_blend_evaluates_shared_terms_once_and_equals_the_blend_of_totals(eph, full, frm_cfg, to_cfg, shared):
+    frm = full if frm_cfg is None else Fo.build_model(frm_cfg, EPOCH, eph)
+    to = full if to_cfg is None else Fo.build_model(to_cfg, EPOCH, eph)
+    assert Fo.shared_terms(frm, to) == shared
+    Fo.check_blend(frm, to)
+    t = full.epoch + 8765.0
+    for r in _points(3, seed=5):
+        for tau in (0.0, 0.37, 1.0):
+            want = tau * np.asarray(Fo.perturbing_acceleration(r, t, to)) + \
+                (1 - tau) * np.asarray(Fo.perturbing_acceleration(r, t, frm))
+            got = np.asarray(Fo.blended_acceleration(r, t, to, frm, tau))
+            assert np.allclose(got, want, rtol=1e-13, atol=1e-15 * np.linalg.norm(want))
+    # each shared term is traced once: the blend's graph holds one geopotential, not two
+    calls = []
+    real = Fo.geopotential_acceleration
+    try:
+        Fo.geopotential_acceleration = lambda *a, **k: calls.append(1) or real(*a, **k)
+        jax.make_jaxpr(lambda rr: Fo.blended_acceleration(rr, t, to, frm, 0.5))(jnp.asarray(_points(1)[0]))
+    finally:
+        Fo.geopotential_acceleration = real
+    assert len(calls) == (1 if "geopotential" in shared else 1 if frm.gravity == "sh" or to.gravity == "sh" else 0)
+
+
+def test_model_blend_with_different_epochs_is_refused(eph, full):
+    other = Fo.build_model({"geopotential": {"degree": 4, "order": 4}}, "2021-05-10T12:00:00", eph)
+    with pytest.raises(ValueError, match="pert_from: the geopotential term differs"):
+        Fo.check_blend(other, full)
+    Fo.check_blend(Fo.build_model({"geopotential": {"degree": 4, "order": 4}}, "2021-05-10T12:00:00"),
+                   Fo.build_model({"geopotential": "j2"}, EPOCH))     # nothing shared: nothing to agree
+
+
 def test_j2_model_equals_degree2_order0_model():
     a = Fo.build_model({"geopotential": "j2"}, EPOCH)
     b = Fo.build_model({"geopotential": {"degree": 2, "order": 0}}, EPOCH)

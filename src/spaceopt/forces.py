@@ -301,31 +301,86 @@ def build_model(config, epoch_utc: str, ephemeris=None, key: str = "perturbation
         (tuple(map(tuple, egm["C"].tolist())), tuple(map(tuple, egm["S"].tolist()))))
 
 
-def acceleration_terms(r, t, model: PerturbationModel) -> dict:
-    """Each perturbing acceleration [m/s^2, ICRS] by name: 'geopotential' | 'j2', and bodies."""
+def acceleration_terms(r, t, model: PerturbationModel, skip=()) -> dict:
+    """Each perturbing acceleration [m/s^2, ICRS] by name: 'geopotential' | 'j2', and bodies;
+    the terms named in ``skip`` are left out (not evaluated)."""
     r = jnp.asarray(r, dtype=jnp.float64)
     t = jnp.asarray(t, dtype=jnp.float64)
     out = {}
-    if model.gravity == "j2":                                 # the frozen pole, NPB's third row
+    if model.gravity == "j2" and "j2" not in skip:            # the frozen pole, NPB's third row
         out["j2"] = j2_acceleration(r, model.gm, model.j2, model.radius, pole=model.rot.npb[2])
-    elif model.gravity != "none":
+    elif model.gravity not in ("none", "j2") and "geopotential" not in skip:
         theta = earth_angle(t, model.rot)
         r_f = to_itrs(r, theta, model.rot)                    # M(t) r, elementwise (frames.py)
         a_f = geopotential_acceleration(r_f, np.array(model.cs[0]), np.array(model.cs[1]),
                                         model.gm, model.radius, model.degree, model.order)
         out["geopotential"] = to_icrs(a_f, theta, model.rot)
-    if model.bodies:
+    if set(model.bodies) - set(skip):
         pos = dict(zip(("moon", "sun"), model.eph.positions(t)))
         for i, b in enumerate(model.bodies):
-            out[b] = third_body_acceleration(r, pos[b], model.mu_bodies[i])
+            if b not in skip:
+                out[b] = third_body_acceleration(r, pos[b], model.mu_bodies[i])
     return out
+
+
+def _total(terms: dict):
+    total = jnp.zeros(3, dtype=jnp.float64)
+    for v in terms.values():
+        total = total + v
+    return total
 
 
 def perturbing_acceleration(r, t, model: PerturbationModel):
     """Total perturbing acceleration [m/s^2] in ICRS axes at geocentric r [m, ICRS], t [s TDB
     past J2000]. Pure JAX: jit it with ``model`` as an argument or closed over."""
-    terms = acceleration_terms(r, t, model)
-    total = jnp.zeros(3, dtype=jnp.float64)
-    for v in terms.values():
-        total = total + v
-    return total
+    return _total(acceleration_terms(r, t, model))
+
+
+def _term_keys(model: PerturbationModel) -> dict:
+    """Each term's name → what fixes its form (static): two models share a term where these agree."""
+    keys = {}
+    if model.gravity == "j2":
+        keys["j2"] = ("j2", model.rot.method)
+    elif model.gravity != "none":
+        keys["geopotential"] = (model.gravity, model.degree, model.order, model.cs, model.rot.method)
+    keys.update({b: (b,) for b in model.bodies})
+    return keys
+
+
+def shared_terms(frm: PerturbationModel, to: PerturbationModel) -> tuple:
+    """The terms of the same form in both models (their data: :func:`check_blend`)."""
+    a, b = _term_keys(frm), _term_keys(to)
+    return tuple(k for k in a if b.get(k) == a[k])
+
+
+def _term_data(model: PerturbationModel, name: str):
+    if name in ("j2", "geopotential"):
+        return (model.rot, model.gm, model.radius, model.j2)
+    return (model.eph, model.mu_bodies[model.bodies.index(name)])
+
+
+def check_blend(frm: PerturbationModel, to: PerturbationModel, key: str = "pert_from") -> None:
+    """Raise ValueError unless every term of the same form in ``frm`` and ``to`` has the same
+    data (epoch, Earth orientation, constants, ephemeris): :func:`blended_acceleration`
+    evaluates such a term once. Concrete models only (not under jit)."""
+    for name in shared_terms(frm, to):
+        (la, ta), (lb, tb) = (jax.tree_util.tree_flatten(_term_data(m, name)) for m in (frm, to))
+        if ta != tb or not all(np.array_equal(np.asarray(x), np.asarray(y)) for x, y in zip(la, lb)):
+            raise ValueError(f"{key}: the {name} term differs in its data from the target model's "
+                             "(epoch, orientation, constants or ephemeris); a model blend needs them equal")
+
+
+def blended_acceleration(r, t, to: PerturbationModel, frm: PerturbationModel, tau):
+    """The force-model blend a = τ a_to + (1 − τ) a_from [m/s^2, ICRS], each term once:
+
+        a = Σ_shared a_k + τ Σ_(to only) a_k + (1 − τ) Σ_(from only) a_k,
+
+    equal to the blend of the totals where the shared terms (same form, :func:`shared_terms`)
+    have the same data, which :func:`check_blend` verifies where the blend is set up. E8's
+    4×4 → 4×4 + Moon + Sun thus evaluates the 4×4 geopotential once, not twice."""
+    shared = shared_terms(frm, to)
+    a_to = acceleration_terms(r, t, to)
+    common = {k: v for k, v in a_to.items() if k in shared}
+    only_to = {k: v for k, v in a_to.items() if k not in shared}
+    only_from = acceleration_terms(r, t, frm, skip=shared)
+    return _total(common) + tau * _total(only_to) + (1.0 - tau) * _total(only_from)

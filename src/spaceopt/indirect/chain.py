@@ -32,7 +32,7 @@ from ..errors import ConvergenceError
 from . import exact_switching, hamiltonians as hm
 from .continuation import (POLISH_FAILED, STEP_SIZES, ArclengthContinuation, ArclengthOptions,
                            Continuation, ContinuationOptions, failure_statistics)
-from .flow import Model, field as flow_field
+from .flow import Model, field as flow_field, model_blend_params
 from .multiple_shooting import MultipleShooting, node_positions, start_nodes
 from .multiple_shooting import residual as multiple_residual, shoot as multiple_shoot
 from .shooting import Shooting, initial_state, residual, shoot
@@ -372,7 +372,7 @@ def continue_in_model(sol: Solution, prm_to: dict, options=None, label="model", 
     solved = lambda z, stats: Solution(sol.stage, sol.shooting, z, dict(prm_to), sol.transfer, stats,
                                        thrust_N=sol.thrust_N)
     try:
-        z, stats = _run(sh, sol.z, {**prm_to, "pert_from": sol.prm["pert"]}, label, options, path)
+        z, stats = _run(sh, sol.z, model_blend_params(prm_to, sol.prm["pert"]), label, options, path)
     except ConvergenceError as exc:
         # at τ = 1 the blend is the new model itself: a failed polish leaves its best point
         # there as the new problem's unconverged solution (``exc.end_point``)

@@ -127,6 +127,15 @@ def tmin_ot_delta(K, y, tau, prm):
     return 1.0 - tau + tau * hm.smooth_delta(S, prm["eps_blend"]), S
 
 
+def model_blend_params(prm_to: dict, pert_from) -> dict:
+    """The data of the force-model blend (homotopy 'model') from ``pert_from`` to
+    ``prm_to['pert']``: the terms the two models share are evaluated once, so their data must
+    agree (:func:`spaceopt.forces.check_blend`, ValueError otherwise)."""
+    from ..forces import check_blend
+    check_blend(pert_from, prm_to["pert"])
+    return {**prm_to, "pert_from": pert_from}
+
+
 def _pert_weight(model, tau):
     """τ in the LP→target blends and the perturbation homotopy 'pert', 1 in the pure problems."""
     return tau if (model.kind != "lp" and model.homotopy in ("lp", "pert")) else 1.0

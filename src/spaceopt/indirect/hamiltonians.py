@@ -156,10 +156,11 @@ def perturbation_tnr(K, x, prm, blend=None):
     e_n = r×v/|r×v|, e_t = e_n×e_r; a_p from :func:`spaceopt.forces.perturbing_acceleration`
     at r·DU and t_TDB = epoch [+ epoch_offset_s] + t·TU, scaled by TU²/DU. ``blend`` = τ: the
     force-model blend a_p = τ a_p[prm['pert']] + (1 − τ) a_p[prm['pert_from']], with the orbital
-    frame, position and time computed once for both models.
+    frame, position and time computed once for both models, and each term the two models share
+    (:func:`spaceopt.forces.blended_acceleration`).
     """
     from ..elements import mee_to_cartesian
-    from ..forces import perturbing_acceleration
+    from ..forces import blended_acceleration, perturbing_acceleration
 
     g = geometry(K, x)
     mee = jnp.stack([x[P], x[EX], x[EY], x[IX], x[IY], g["L"]])
@@ -172,9 +173,8 @@ def perturbation_tnr(K, x, prm, blend=None):
     # prm['epoch_offset_s'] (optional): departure epoch shifted from the model's (E6 date homotopy)
     t = model.epoch + prm.get("epoch_offset_s", 0.0) + x[TIME] * prm["tu"]
     r_m = r * prm["du"]
-    a = perturbing_acceleration(r_m, t, model)
-    if blend is not None:
-        a = blend * a + (1.0 - blend) * perturbing_acceleration(r_m, t, prm["pert_from"])
+    a = (perturbing_acceleration(r_m, t, model) if blend is None
+         else blended_acceleration(r_m, t, model, prm["pert_from"], blend))
     a = a * prm["tu"] ** 2 / prm["du"]
     return jnp.stack([a @ e_t, a @ e_r, a @ e_n])
 

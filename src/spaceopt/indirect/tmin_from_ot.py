@@ -42,6 +42,7 @@ from ..errors import ConvergenceError
 from . import hamiltonians as hm
 from .chain import Solution, _path_tolerances, shooting_for, smoothing_to, start_vector
 from .continuation import ArclengthContinuation, ArclengthOptions
+from .flow import model_blend_params
 from .shooting import final_state, shoot
 
 
@@ -219,7 +220,7 @@ def bound_in_model(bound: Solution, tr_to, options: FromOtOptions = FromOtOption
     T_ot = bound.extra["T_ot_N"] / tr_to.force_unit
     prm = tr_to.params(thrust=bound.extra["T_ot_N"])
     _check_arrival_in_window(bound, prm)
-    blend_prm = {**prm, "pert_from": bound.prm["pert"], "tau_ot": tau_ot}
+    blend_prm = {**model_blend_params(prm, bound.prm["pert"]), "tau_ot": tau_ot}
     sh = shooting_for("tmin", "model", tr_to)
     rtol, atol = _path_tolerances(sh)
     blended = lambda tol: lambda z, b: weighted_thrust_row(  # noqa: E731
