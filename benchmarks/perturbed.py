@@ -1,6 +1,6 @@
 """Benchmark of the perturbed §4.2 studies (issue #3: E8 500-rev chain ≤ 10 min on 2 cores; E6 scan).
 
-Six parts, all written to ``results/benchmarks/perturbed.json`` (parts not rerun are kept):
+Seven parts, all written to ``results/benchmarks/perturbed.json`` (parts not rerun are kept):
 
 1. ``measured``: wall times read from the solve artifacts that exist (provenance wall_time_s of
    results/perturbed/**/<stage>.json): each E5/E7/E9 chain, every E6 date and the scan total,
@@ -33,11 +33,16 @@ Six parts, all written to ``results/benchmarks/perturbed.json`` (parts not rerun
    one process after both maps are compiled, from the same LP solution: wall time, Jacobians,
    residual evaluations, steps, m_p and Δt, and the ratio of the wall times
    (:func:`corrector_comparison`).
+7. ``threads`` (``--threads-compare N``): one Jacobian of the E8 4×4 → full blend at N
+   revolutions with its sensitivity columns in one computation and split over ``--threads``
+   threads (default 2), side by side (:func:`threads_comparison`). ``--threads k`` alone runs
+   the whole benchmark with k threads per Jacobian (recorded in ``machine``; the exact route's
+   key gets ``_threads<k>``).
 
 Usage:
   python benchmarks/perturbed.py [--revs 5] [--rounds 10] [--baseline REV] [--e8-revs 200 ...]
                                  [--skip-propagation] [--skip-e8] [--profile] [--exact-route N ...]
-                                 [--corrector-compare N ...]
+                                 [--corrector-compare N ...] [--threads K] [--threads-compare N ...]
 """
 from __future__ import annotations
 
@@ -490,6 +495,53 @@ def corrector_comparison(n_rev: float) -> dict:
     return out
 
 
+def threads_comparison(n_rev: float, k: int, rounds: int) -> dict:
+    """One Jacobian of the E8 4×4 → full model blend at τ = 0.5 (``n_rev`` revolutions, from the
+    DAG's 4×4 artifact and on its map, at the path rtol), with the sensitivity columns in one
+    computation and split over ``k`` threads (:mod:`spaceopt.indirect.column_threads`), side by
+    side: both compiled first, then ``rounds`` rounds in alternating order; wall times, their
+    paired median ratio, and the largest differences of f, ∂f/∂z, ∂f/∂τ and the steps."""
+    import dataclasses
+
+    import jax
+    import jax.numpy as jnp
+    import numpy as np
+    from spaceopt.indirect import chain
+    from spaceopt.indirect.column_threads import THREADS_ENV
+    from spaceopt.indirect.flow import model_blend_params
+    from spaceopt.indirect.shooting import shoot
+    from spaceopt.studies import perturbed as P
+
+    pc = _perturbed_config()
+    start = P.load(ROOT / "results" / "perturbed" / "e8" / f"g44_n{n_rev:g}.json")
+    tr = P.transfer_from_config(pc, "e8", "g44_moon_sun", n_rev=n_rev,
+                                ephemeris=P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"]))
+    prm = model_blend_params({**start.prm, "pert": tr.params(thrust=start.thrust_N)["pert"]}, start.prm["pert"])
+    sh = dataclasses.replace(start.shooting, model=dataclasses.replace(start.shooting.model, homotopy="model"),
+                             path_rtol=P.case_path_rtol(pc["cases"]["e8"], "g44_moon_sun", "perturbed.cases.e8"))
+    z, tol, before = jnp.asarray(start.z), chain._path_tolerances(sh), os.environ.get(THREADS_ENV)
+
+    def run(threads):
+        os.environ[THREADS_ENV] = str(threads)
+        t0 = time.perf_counter()
+        out = jax.block_until_ready(shoot(sh, z, 0.5, prm, *tol))
+        return out, time.perf_counter() - t0
+
+    try:
+        (one, _), (split, _) = run(1), run(k)
+        times = {1: [], k: []}
+        for i in range(rounds):
+            for threads in ((1, k) if i % 2 == 0 else (k, 1)):
+                times[threads].append(run(threads)[1])
+    finally:
+        os.environ.pop(THREADS_ENV) if before is None else os.environ.__setitem__(THREADS_ENV, before)
+    return {"n_rev": n_rev, "threads": k, "map": sh.switching, "rtol": tol[0], "rounds": rounds,
+            "wall_time_s": {"1": times[1], str(k): times[k]},
+            "median_ratio_1_over_k": float(np.median(np.array(times[1]) / np.array(times[k]))),
+            "max_abs_diff": {name: float(jnp.abs(a - b).max()) for name, a, b in zip(("f", "J", "f_tau"), one, split)},
+            "steps": [int(one[3]), int(split[3])]}
+
+
 def _dag_e8(n_rev: float, models) -> dict:
     """m_p, Δt and wall time of the DAG's E8 artifacts at ``n_rev`` that exist (for comparison)."""
     from spaceopt import artifacts
@@ -562,15 +614,22 @@ def main(argv=None):
     ap.add_argument("--corrector-compare", type=float, nargs="*", default=[],
                     help="revolution counts of the E8 LP -> OT path with either corrector (corrector)")
     ap.add_argument("--profile", action="store_true", help="field cost per force model (kernels, us/eval)")
+    ap.add_argument("--threads", type=int, default=None,
+                    help="SPACEOPT_THREADS for this run: a Jacobian's columns split over this many threads")
+    ap.add_argument("--threads-compare", type=float, nargs="*", default=[],
+                    help="revolution counts of the E8 blend Jacobian, 1 thread against --threads (default 2)")
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
     if a.worker:
         return _worker(a.revs)
+    if a.threads is not None:
+        os.environ["SPACEOPT_THREADS"] = str(a.threads)
     out_path = Path(a.out)
     report = json.loads(out_path.read_text()) if out_path.exists() else {}
     report = {k: v for k, v in report.items()
-              if k in ("propagation", "e8", "field_profile", "e8_exact_route", "corrector")}
-    report["machine"] = {"cpu_count": os.cpu_count(), "load_avg_start": os.getloadavg()}
+              if k in ("propagation", "e8", "field_profile", "e8_exact_route", "corrector", "threads")}
+    report["machine"] = {"cpu_count": os.cpu_count(), "load_avg_start": os.getloadavg(),
+                         "jacobian_threads": int(os.environ.get("SPACEOPT_THREADS", "1"))}
     report["measured"] = measured(Path(a.results))
     report["target_s"] = TARGET_S
 
@@ -600,8 +659,12 @@ def main(argv=None):
                 write()
     for n in a.exact_route:
         key = f"n{n:g}" + ("" if a.exact_route_corrector == "newton" else f"_{a.exact_route_corrector}") + \
-            (f"_to_{a.exact_route_to}" if a.exact_route_to else "")
+            (f"_to_{a.exact_route_to}" if a.exact_route_to else "") + \
+            (f"_threads{report['machine']['jacobian_threads']}" if report["machine"]["jacobian_threads"] > 1 else "")
         report.setdefault("e8_exact_route", {})[key] = e8_exact_route(n, a.exact_route_corrector, a.exact_route_to)
+        write()
+    for n in a.threads_compare:
+        report.setdefault("threads", {})[f"n{n:g}"] = threads_comparison(n, a.threads or 2, a.rounds)
         write()
     for n in a.corrector_compare:
         report.setdefault("corrector", {})[f"n{n:g}"] = corrector_comparison(n)

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import yaml
 
+from spaceopt.errors import ConfigError
 from spaceopt.indirect import chain, exact_switching as X, hamiltonians as hm
 from spaceopt.indirect.flow import Model
 from spaceopt.indirect.shooting import Shooting, final_state, initial_state, residual, shoot
@@ -86,6 +87,28 @@ def test_the_tau_column_is_the_derivative_in_the_homotopy_parameter(smoothed):
     _, _, ftau, _, _ = shoot(sh_pert, z, 0.5, ot.prm)
     fd = (residual(sh_pert, z, 0.5 + h, ot.prm)[0] - residual(sh_pert, z, 0.5 - h, ot.prm)[0]) / (2 * h)
     assert np.linalg.norm(ftau - fd) / np.linalg.norm(ftau) < 1e-4
+
+
+@pytest.mark.parametrize("threads", ["2", "3"])
+def test_the_columns_propagated_in_threads_give_the_same_map(smoothed, monkeypatch, threads):
+    """SPACEOPT_THREADS > 1 (.column_threads): Φ's columns in blocks, one thread each (3 blocks
+    of 9 columns; 2 with a zero column padding), on both maps, at τ = 0.5 of the perturbation
+    switch where the τ column is not trivial: f, ∂f/∂z, ∂f/∂τ and the steps of one computation."""
+    ot, sh = smoothed
+    z = jnp.asarray(ot.z)
+    for layout in (ot.shooting, sh):
+        layout = dataclasses.replace(layout, model=Model("ot", "pert", True))
+        monkeypatch.setenv("SPACEOPT_THREADS", "1")
+        one = shoot(layout, z, 0.5, ot.prm)
+        monkeypatch.setenv("SPACEOPT_THREADS", threads)
+        split = shoot(layout, z, 0.5, ot.prm)
+        assert bool(split[4]) and int(split[3]) == int(one[3])
+        np.testing.assert_allclose(split[0], one[0], rtol=0, atol=1e-14)
+        for a, b in zip(split[1:3], one[1:3]):
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-12 * float(jnp.abs(b).max()))
+    monkeypatch.setenv("SPACEOPT_THREADS", "two")
+    with pytest.raises(ConfigError, match="SPACEOPT_THREADS='two': expected a positive integer"):
+        shoot(sh, z, 1.0, ot.prm)
 
 
 def test_newton_from_the_smoothed_root_lands_on_the_exact_extremal(smoothed):

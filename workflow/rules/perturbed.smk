@@ -48,9 +48,10 @@ def pt_ephemeris(case, model):
 
 
 def pt_config_for(case, model):
-    """Only what a (case, model) solve depends on."""
+    """Only what a (case, model) solve depends on (not the threads it runs on: PT_THREADS)."""
     cc = PT["cases"][case]
-    return {"constants": PT["constants"], "numerics": PT["numerics"],
+    return {"constants": PT["constants"],
+            "numerics": {k: v for k, v in PT["numerics"].items() if k != "jacobian_threads"},
             "models": {model: PT["models"][model]},
             "orbits": {cc[k]: PT["orbits"][cc[k]] for k in ("initial", "final")},
             "cases": {case: cc}}
@@ -77,6 +78,11 @@ def pt_fallback_source(case, model):
     return models[models.index(model) - 1]
 
 
+# threads per solve: a Jacobian's sensitivity columns split over them (numerics.jacobian_threads;
+# spaceopt.indirect.column_threads). 1 by default: the 2-core reproduction runs two solves at once
+PT_THREADS = PT["numerics"].get("jacobian_threads", 1)
+
+
 def pt_solve_inputs(w):
     src = pt_warm_source(w.case, w.model) or pt_fallback_source(w.case, w.model)
     out = {"src": PT_SRC, "eph": pt_ephemeris(w.case, w.model)}
@@ -94,6 +100,7 @@ rule perturbed_solve:
     log: f"{PTDIR}/logs/{{case}}_{{model}}.log"
     benchmark: f"{PTDIR}/benchmarks/{{case}}_{{model}}.tsv"
     resources: mem_mb=4000, runtime=120
+    threads: PT_THREADS
     script: "../scripts/perturbed_solve.py"
 
 
@@ -166,6 +173,7 @@ rule perturbed_e6_date:
     log: f"{PTDIR}/logs/e6_{{date}}.log"
     benchmark: f"{PTDIR}/benchmarks/e6_{{date}}.tsv"
     resources: mem_mb=4000, runtime=60
+    threads: PT_THREADS
     script: "../scripts/perturbed_solve.py"
 
 
@@ -282,6 +290,7 @@ rule perturbed_e8:
     log: f"{PTDIR}/logs/e8_{{model}}_n{{n}}.log"
     benchmark: f"{PTDIR}/benchmarks/e8_{{model}}_n{{n}}.tsv"
     resources: mem_mb=4000, runtime=600
+    threads: PT_THREADS
     script: "../scripts/perturbed_solve.py"
 
 

@@ -5,13 +5,20 @@ Anything else is a bug: its traceback goes to the rule's log (where ``sys.stderr
 the script runs; after the script's ``with`` block closes the log it would be lost), and the
 console gets one line that says where to look.
 """
+import os
 import sys
 import traceback
 
 from spaceopt.errors import SpaceoptError
+from spaceopt.indirect.column_threads import THREADS_ENV
 
 
 def run_step(main, *args, **kwargs):
+    """``main(*args, **kwargs)`` with errors as above. Where the first argument is the Snakemake
+    job, its ``threads`` become the threads a Jacobian's columns are split over (SPACEOPT_THREADS,
+    :mod:`spaceopt.indirect.column_threads`)."""
+    if args and hasattr(args[0], "threads"):
+        os.environ[THREADS_ENV] = str(args[0].threads)
     try:
         return main(*args, **kwargs)
     except SpaceoptError as exc:

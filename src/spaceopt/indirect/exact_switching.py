@@ -54,7 +54,7 @@ import diffrax
 import jax
 import jax.numpy as jnp
 
-from . import hamiltonians as hm
+from . import column_threads, hamiltonians as hm
 from .flow import _primal_rms, field, hamiltonian, ot_delta, params_at
 from .shooting import (initial_state, start_with_sensitivities, terminal_residual,
                        terminal_with_derivatives)
@@ -247,18 +247,22 @@ def switches(model, y0, Kf, tau, prm, rtol, atol, max_steps, segment_steps=SEGME
     return dict(d0=d0, Ks=Ks, n_switches=n_sw, yf=y, steps=steps, status=status)
 
 
-def _saltation(model, K, y, Phi, delta, tau, prm):
-    """Φ⁺ = Φ⁻ + (g⁻ − g⁺) dK_s/d(z, τ) at a switch from throttle δ (the τ column last)."""
+def _saltation(model, K, y, Phi, delta, tau, prm, tau_tangent):
+    """Φ⁺ = Φ⁻ + (g⁻ − g⁺) dK_s/d(z, τ) at a switch from throttle δ (``tau_tangent``: each
+    column's weight of ∂/∂τ)."""
     g_minus = field(model, K, y, tau, prm, delta=delta)
     g_plus = field(model, K, y, tau, prm, delta=1.0 - delta)
     S_K, S_y, S_tau = jax.grad(lambda k, yy, t: switching(model, k, yy, t, prm), argnums=(0, 1, 2))(K, y, tau)
-    dKs = -(S_y @ Phi + S_tau * jnp.zeros(Phi.shape[1]).at[-1].set(1.0)) / (S_K + S_y @ g_minus)
+    dKs = -(S_y @ Phi + S_tau * tau_tangent) / (S_K + S_y @ g_minus)
     return Phi + jnp.outer(g_minus - g_plus, dKs)
 
 
-def propagate_with_sensitivities(model, y0, Phi0, Kf, tau, prm, rtol, atol, max_steps, d0, Ks, n_switches):
-    """Pass 2: y(K_f), Φ(K_f), δ on the last arc, steps, success; the τ column of Φ last."""
-    tau_tangent = jnp.zeros(Phi0.shape[1]).at[-1].set(1.0)
+def propagate_with_sensitivities(model, y0, Phi0, Kf, tau, prm, rtol, atol, max_steps, d0, Ks, n_switches,
+                                 tau_tangent=None):
+    """Pass 2: y(K_f), Φ(K_f), δ on the last arc, steps, success; the τ column of Φ last, or,
+    with ``tau_tangent``, each column's weight of ∂/∂τ (a block of columns, .column_threads)."""
+    if tau_tangent is None:
+        tau_tangent = jnp.zeros(Phi0.shape[1]).at[-1].set(1.0)
 
     def rhs(K, Y, a):
         gy, lin = jax.linearize(lambda yy, tt: field(model, K, yy, tt, a[1], delta=a[2]), Y[0], a[0])
@@ -273,7 +277,7 @@ def propagate_with_sensitivities(model, y0, Phi0, Kf, tau, prm, rtol, atol, max_
             saveat=diffrax.SaveAt(t1=True), max_steps=max_steps, throw=False)
         y, Phi = sol.ys[0][-1], sol.ys[1][-1]
         last = i >= n_switches
-        Phi = jax.lax.cond(last, lambda: Phi, lambda: _saltation(model, K1, y, Phi, delta, tau, prm))
+        Phi = jax.lax.cond(last, lambda: Phi, lambda: _saltation(model, K1, y, Phi, delta, tau, prm, tau_tangent))
         return (i + 1, K1, y, Phi, jnp.where(last, delta, 1.0 - delta), steps + sol.stats["num_steps"],
                 ok & (sol.result == diffrax.RESULTS.successful))
 
@@ -312,29 +316,54 @@ def final_state(sh, z, tau, prm, rtol, atol):
     return p1["yf"], p1["status"] == DONE
 
 
-@partial(jax.jit, static_argnums=0)
-def shoot(sh, z, tau, prm, rtol, atol):
-    """f(z, τ), ∂f/∂z, ∂f/∂τ, steps of both passes, success (:func:`.shooting.shoot`'s tuple)."""
-    kf, model = sh.kf_index, sh.model
+def _start(sh, z, tau, prm, rtol, atol):
+    """y(0), Φ(0) (the τ column last) and pass 1 (:func:`switches`)."""
     y0, dy0_dz, dy0_dtau = start_with_sensitivities(sh, z, tau, prm)
-    p1 = switches(model, y0, z[kf], tau, prm, rtol, atol, sh.max_steps)
-    Phi0 = jnp.concatenate([dy0_dz, dy0_dtau[:, None]], axis=1)
-    yf, Phif, d_last, steps2, ok2 = propagate_with_sensitivities(
-        model, y0, Phi0, z[kf], tau, prm, rtol, atol, sh.max_steps, p1["d0"], p1["Ks"], p1["n_switches"])
-    gf = field(model, z[kf], yf, tau, prm, delta=d_last)
+    p1 = switches(sh.model, y0, z[sh.kf_index], tau, prm, rtol, atol, sh.max_steps)
+    return y0, jnp.concatenate([dy0_dz, dy0_dtau[:, None]], axis=1), p1
 
+
+def _assemble(sh, z, tau, prm, yf, Phif, d_last, d0):
+    """f(z, τ), ∂f/∂z, ∂f/∂τ from y(K_f), Φ(K_f) and the throttle on the first and last arcs."""
+    kf, model = sh.kf_index, sh.model
+    gf = field(model, z[kf], yf, tau, prm, delta=d_last)
     r_term, dr_dy, dr_dK, dr_dtau = terminal_with_derivatives(sh, yf, z[kf], tau, prm)
     dyf_dz = jnp.insert(Phif[:, :-1], kf, gf, axis=1)
     J_term = (dr_dy @ dyf_dz).at[:, kf].add(dr_dK)
     ftau_term = dr_dy @ Phif[:, -1] + dr_dtau
 
-    r0_of = lambda zz, tt: transversality(sh, zz, tt, prm, p1["d0"])  # noqa: E731
+    r0_of = lambda zz, tt: transversality(sh, zz, tt, prm, d0)  # noqa: E731
     r0 = r0_of(z, tau)
     dr0_dz, dr0_dtau = jax.jacfwd(r0_of, argnums=(0, 1))(z, tau)
     f = jnp.concatenate([jnp.atleast_1d(r0), r_term])
     J = jnp.concatenate([dr0_dz[None, :], J_term], axis=0)
     ftau = jnp.concatenate([jnp.atleast_1d(dr0_dtau), ftau_term])
-    return f, J, ftau, p1["steps"] + steps2, ok2 & (p1["status"] == DONE)
+    return f, J, ftau
+
+
+@partial(jax.jit, static_argnums=0)
+def shoot(sh, z, tau, prm, rtol, atol):
+    """f(z, τ), ∂f/∂z, ∂f/∂τ, steps of both passes, success (:func:`.shooting.shoot`'s tuple)."""
+    y0, Phi0, p1 = _start(sh, z, tau, prm, rtol, atol)
+    yf, Phif, d_last, steps2, ok2 = propagate_with_sensitivities(
+        sh.model, y0, Phi0, z[sh.kf_index], tau, prm, rtol, atol, sh.max_steps, p1["d0"], p1["Ks"], p1["n_switches"])
+    return (*_assemble(sh, z, tau, prm, yf, Phif, d_last, p1["d0"]), p1["steps"] + steps2,
+            ok2 & (p1["status"] == DONE))
+
+
+_start_jit = jax.jit(_start, static_argnums=0)
+_assemble_jit = jax.jit(_assemble, static_argnums=0)
+_pass2_block = jax.jit(propagate_with_sensitivities, static_argnums=(0, 8))
+
+
+def shoot_threaded(sh, z, tau, prm, rtol, atol, k):
+    """:func:`shoot` with pass 2's columns split over ``k`` threads (.column_threads)."""
+    y0, Phi0, p1 = _start_jit(sh, z, tau, prm, rtol, atol)
+    yf, Phif, d_last, steps2, ok2 = column_threads.propagate(
+        lambda Phi, tangent: _pass2_block(sh.model, y0, Phi, z[sh.kf_index], tau, prm, rtol, atol, sh.max_steps,
+                                          p1["d0"], p1["Ks"], p1["n_switches"], tangent), Phi0, k)
+    return (*_assemble_jit(sh, z, tau, prm, yf, Phif, d_last, p1["d0"]), p1["steps"] + steps2,
+            ok2 & (p1["status"] == DONE))
 
 
 @partial(jax.jit, static_argnums=0)

@@ -265,10 +265,12 @@ def propagate(model: Model, y0, Kf, tau, prm, rtol, atol, max_steps, K0=0.0):
     return sol.ys[-1], sol.stats["num_steps"], sol.result == diffrax.RESULTS.successful
 
 
-def propagate_with_sensitivities(model: Model, y0, Phi0, Kf, tau, prm, rtol, atol, max_steps, K0=0.0):
-    """Integrate y and Φ = ∂y/∂(z…, τ) from K = K0 to Kf. The last column of Φ is the τ column."""
-    n_dir = Phi0.shape[1]
-    tau_tangent = jnp.zeros(n_dir).at[-1].set(1.0)
+def propagate_with_sensitivities(model: Model, y0, Phi0, Kf, tau, prm, rtol, atol, max_steps, K0=0.0,
+                                 tau_tangent=None):
+    """Integrate y and Φ = ∂y/∂(z…, τ) from K = K0 to Kf. The last column of Φ is the τ column,
+    or, with ``tau_tangent``, each column's weight of ∂/∂τ (a block of columns, .column_threads)."""
+    if tau_tangent is None:
+        tau_tangent = jnp.zeros(Phi0.shape[1]).at[-1].set(1.0)
 
     def rhs(K, Y, args):
         y, Phi = Y

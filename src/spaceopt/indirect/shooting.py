@@ -29,7 +29,7 @@ from functools import partial
 import jax
 import jax.numpy as jnp
 
-from . import hamiltonians as hm
+from . import column_threads, hamiltonians as hm
 from .flow import (SWITCHINGS, Model, field, hamiltonian, has_bang_bang_throttle, params_at, propagate,
                    propagate_with_sensitivities, tmin_ot_tau)
 from .transfer import MAX_STEPS, PATH_RTOL
@@ -120,10 +120,14 @@ def shoot(sh: Shooting, z, tau, prm, rtol=None, atol=None):
     """Residual f(z, τ), ∂f/∂z, ∂f/∂τ, number of integration steps, success flag.
 
     ``rtol``/``atol`` default to the Shooting's end-point tolerances; they are traced, so the
-    loose path tolerance and the tight end-point tolerance share one compiled function.
+    loose path tolerance and the tight end-point tolerance share one compiled function. With
+    ``SPACEOPT_THREADS`` k > 1 the columns of Φ are propagated in k threads (.column_threads).
     """
-    return _map(sh, "shoot")(sh, z, tau, prm, sh.rtol if rtol is None else rtol,
-                             sh.atol if atol is None else atol)
+    rtol, atol = sh.rtol if rtol is None else rtol, sh.atol if atol is None else atol
+    k = column_threads.threads()
+    if k > 1:
+        return _map(sh, "shoot_threaded")(sh, z, tau, prm, rtol, atol, k)
+    return _map(sh, "shoot")(sh, z, tau, prm, rtol, atol)
 
 
 def _map(sh: Shooting, name: str):
@@ -131,7 +135,8 @@ def _map(sh: Shooting, name: str):
     if sh.switching == "exact":
         from . import exact_switching
         return getattr(exact_switching, name)
-    return {"shoot": _shoot, "residual": _residual, "final_state": _final_state}[name]
+    return {"shoot": _shoot, "shoot_threaded": _shoot_threaded, "residual": _residual,
+            "final_state": _final_state}[name]
 
 
 def residual(sh: Shooting, z, tau, prm, rtol=None, atol=None):
@@ -185,13 +190,15 @@ def transversality_with_derivatives(sh: Shooting, z, tau, prm):
     return (r0(z, tau), *jax.jacfwd(r0, argnums=(0, 1))(z, tau))
 
 
-@partial(jax.jit, static_argnums=0)
-def _shoot(sh: Shooting, z, tau, prm, rtol, atol):
-    kf = sh.kf_index
+def _start(sh: Shooting, z, tau, prm):
+    """y(0) and Φ(0) = ∂y(0)/∂(z without K_f, τ), the τ column last."""
     y0, dy0_dz, dy0_dtau = start_with_sensitivities(sh, z, tau, prm)
-    Phi0 = jnp.concatenate([dy0_dz, dy0_dtau[:, None]], axis=1)
-    yf, Phif, nsteps, ok = propagate_with_sensitivities(
-        sh.model, y0, Phi0, z[kf], tau, prm, rtol, atol, sh.max_steps)
+    return y0, jnp.concatenate([dy0_dz, dy0_dtau[:, None]], axis=1)
+
+
+def _assemble(sh: Shooting, z, tau, prm, yf, Phif):
+    """f(z, τ), ∂f/∂z, ∂f/∂τ from y(K_f) and Φ(K_f)."""
+    kf = sh.kf_index
     gf = field(sh.model, z[kf], yf, tau, prm)
 
     r_term, dr_dy, dr_dK, dr_dtau = terminal_with_derivatives(sh, yf, z[kf], tau, prm)
@@ -205,4 +212,26 @@ def _shoot(sh: Shooting, z, tau, prm, rtol, atol):
     f = jnp.concatenate([jnp.atleast_1d(r0), r_term])
     J = jnp.concatenate([dr0_dz[None, :], J_term], axis=0)
     ftau = jnp.concatenate([jnp.atleast_1d(dr0_dtau), ftau_term])
-    return f, J, ftau, nsteps, ok
+    return f, J, ftau
+
+
+@partial(jax.jit, static_argnums=0)
+def _shoot(sh: Shooting, z, tau, prm, rtol, atol):
+    y0, Phi0 = _start(sh, z, tau, prm)
+    yf, Phif, nsteps, ok = propagate_with_sensitivities(
+        sh.model, y0, Phi0, z[sh.kf_index], tau, prm, rtol, atol, sh.max_steps)
+    return (*_assemble(sh, z, tau, prm, yf, Phif), nsteps, ok)
+
+
+_start_jit = jax.jit(_start, static_argnums=0)
+_assemble_jit = jax.jit(_assemble, static_argnums=0)
+_propagate_block = jax.jit(propagate_with_sensitivities, static_argnums=(0, 8))
+
+
+def _shoot_threaded(sh: Shooting, z, tau, prm, rtol, atol, k):
+    """:func:`_shoot` with the columns of Φ split over ``k`` threads (.column_threads)."""
+    y0, Phi0 = _start_jit(sh, z, tau, prm)
+    yf, Phif, nsteps, ok = column_threads.propagate(
+        lambda Phi, tangent: _propagate_block(sh.model, y0, Phi, z[sh.kf_index], tau, prm, rtol, atol,
+                                              sh.max_steps, 0.0, tangent), Phi0, k)
+    return (*_assemble_jit(sh, z, tau, prm, yf, Phif), nsteps, ok)
