@@ -93,7 +93,8 @@ def test_the_tau_column_is_the_derivative_in_the_homotopy_parameter(smoothed):
 def test_the_columns_propagated_in_threads_give_the_same_map(smoothed, monkeypatch, threads):
     """SPACEOPT_THREADS > 1 (.column_threads): Φ's columns in blocks, one thread each (3 blocks
     of 9 columns; 2 with a zero column padding), on both maps, at τ = 0.5 of the perturbation
-    switch where the τ column is not trivial: f, ∂f/∂z, ∂f/∂τ and the steps of one computation."""
+    switch where the τ column is not trivial: f, ∂f/∂z, ∂f/∂τ and the steps of one computation;
+    under jax.jit the single computation; a thread count that is not a positive integer refused."""
     ot, sh = smoothed
     z = jnp.asarray(ot.z)
     for layout in (ot.shooting, sh):
@@ -106,6 +107,9 @@ def test_the_columns_propagated_in_threads_give_the_same_map(smoothed, monkeypat
         np.testing.assert_allclose(split[0], one[0], rtol=0, atol=1e-14)
         for a, b in zip(split[1:3], one[1:3]):
             np.testing.assert_allclose(a, b, rtol=0, atol=1e-12 * float(jnp.abs(b).max()))
+        # under a transformation the map stays one computation
+        traced = jax.jit(lambda zz, layout=layout: shoot(layout, zz, 0.5, ot.prm))(z)
+        np.testing.assert_allclose(traced[1], one[1], rtol=0, atol=1e-12 * float(jnp.abs(one[1]).max()))
     monkeypatch.setenv("SPACEOPT_THREADS", "two")
     with pytest.raises(ConfigError, match="SPACEOPT_THREADS='two': expected a positive integer"):
         shoot(sh, z, 1.0, ot.prm)

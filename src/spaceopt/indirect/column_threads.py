@@ -8,7 +8,16 @@ map the saltation acts column by column), and the step control reads y alone
 (:func:`.flow._primal_rms`). So the columns split into blocks, each integrated with its own copy
 of y on its own thread: every block takes the same steps and ends at the same y(K_f), and the
 joined Φ(K_f) is the one the single computation gives, to round-off. JAX releases the GIL while a
-compiled computation runs, so the threads run in parallel.
+compiled computation runs, so the threads run in parallel; each thread waits for its own block
+(dispatched without waiting, the blocks queued on the CPU client and ran one after the other, and
+slower: 7–20 s against 8.2 s).
+
+The gain is bounded by what the blocks share: each integrates y, and the primal field with its
+linearisation costs far more than a column. E8 at 500 revolutions, the 4×4 → full blend on the
+exact map at the path rtol (scratch, idle machine): pass 1 1.37 s; pass 2 with 5 columns 4.93 s,
+with 10 columns 6.46 s (0.3 s a column). Side by side (``benchmarks/perturbed.py
+--threads-compare``): two threads 1.14× faster there, 1.28× on the unperturbed smoothed map
+(docs/perturbed-e6-e7-e8.md, "thirty-ninth session").
 
 Written by hand: ``jax.pmap``/``shard_map`` over CPU devices need the device count fixed before
 JAX starts (``XLA_FLAGS=--xla_force_host_platform_device_count``), which a library cannot set for

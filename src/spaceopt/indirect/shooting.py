@@ -121,11 +121,12 @@ def shoot(sh: Shooting, z, tau, prm, rtol=None, atol=None):
 
     ``rtol``/``atol`` default to the Shooting's end-point tolerances; they are traced, so the
     loose path tolerance and the tight end-point tolerance share one compiled function. With
-    ``SPACEOPT_THREADS`` k > 1 the columns of Φ are propagated in k threads (.column_threads).
+    ``SPACEOPT_THREADS`` k > 1 the columns of Φ are propagated in k threads (.column_threads),
+    except under a JAX transformation (``jax.jit(jax.vmap(shoot))``: one computation).
     """
     rtol, atol = sh.rtol if rtol is None else rtol, sh.atol if atol is None else atol
     k = column_threads.threads()
-    if k > 1:
+    if k > 1 and not isinstance(z, jax.core.Tracer):
         return _map(sh, "shoot_threaded")(sh, z, tau, prm, rtol, atol, k)
     return _map(sh, "shoot")(sh, z, tau, prm, rtol, atol)
 
