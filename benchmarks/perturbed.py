@@ -508,17 +508,15 @@ def threads_comparison(n_rev: float, k: int, rounds: int) -> dict:
     import numpy as np
     from spaceopt.indirect import chain
     from spaceopt.indirect.column_threads import THREADS_ENV
-    from spaceopt.indirect.flow import model_blend_params
     from spaceopt.indirect.shooting import shoot
     from spaceopt.studies import perturbed as P
 
     pc = _perturbed_config()
     start = P.load(ROOT / "results" / "perturbed" / "e8" / f"g44_n{n_rev:g}.json")
-    tr = P.transfer_from_config(pc, "e8", "g44_moon_sun", n_rev=n_rev,
-                                ephemeris=P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"]))
-    prm = model_blend_params({**start.prm, "pert": tr.params(thrust=start.thrust_N)["pert"]}, start.prm["pert"])
-    sh = dataclasses.replace(start.shooting, model=dataclasses.replace(start.shooting.model, homotopy="model"),
-                             path_rtol=P.case_path_rtol(pc["cases"]["e8"], "g44_moon_sun", "perturbed.cases.e8"))
+    tr = dataclasses.replace(P.transfer_from_config(
+        pc, "e8", "g44_moon_sun", n_rev=n_rev,
+        ephemeris=P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"])), path_arcs=1)
+    sh, prm, _ = chain.model_blend(P.warm_start_integration(start, tr), tr.params(thrust=start.thrust_N))
     z, tol, before = jnp.asarray(start.z), chain._path_tolerances(sh), os.environ.get(THREADS_ENV)
 
     def run(threads):

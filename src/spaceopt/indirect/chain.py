@@ -354,25 +354,33 @@ def continue_in_params(sol: Solution, prm_to: dict, options=None, label="param",
     return out
 
 
-def continue_in_model(sol: Solution, prm_to: dict, options=None, label="model", path: str = "tau") -> Solution:
-    """From a converged perturbed OT solution to the same problem under another force model
-    (``prm_to['pert']``, every other datum the solution's), at its ε, by the model blend
-    (flow.Model homotopy 'model'): a_p = (1 − τ) a_p,from + τ a_p,to.
-
-    The physical path, unlike the Newton homotopy f(z, τ) = (1 − τ) f(z₀) at the new model:
-    E8 at 300 revolutions, 4×4 → 4×4 + Moon + Sun at ε_f, the Newton homotopy folds at τ ≈ 0.35
-    (113 Jacobians, docs/perturbed-e6-e7-e8.md); the blend of the Moon and Sun terms converges in 13.
-    """
+def model_blend(sol: Solution, prm_to: dict) -> tuple[Shooting, dict, dict]:
+    """The force-model blend (flow.Model homotopy 'model') from the perturbed OT solution ``sol``
+    to ``prm_to['pert']``: its layout, its data (``flow.model_blend_params``), and ``prm_to`` on
+    the solution's map. ValueError where any other datum differs from the solution's."""
     prm_to = _on_map_of(sol, prm_to)
     moved = [k for k in (*PATH_DATA, "eps_final")
              if (k in sol.prm or k in prm_to) and not np.isclose(sol.prm.get(k, 0.0), prm_to.get(k, 0.0), rtol=0, atol=0)]
     if moved or sol.stage != "ot" or not sol.shooting.model.perturbed:
         raise ValueError(f"continue_in_model: a perturbed OT solution at the same data is needed (differs: {moved})")
     sh = dataclasses.replace(sol.shooting, model=dataclasses.replace(sol.shooting.model, homotopy="model"))
+    return sh, model_blend_params(prm_to, sol.prm["pert"]), prm_to
+
+
+def continue_in_model(sol: Solution, prm_to: dict, options=None, label="model", path: str = "tau") -> Solution:
+    """From a converged perturbed OT solution to the same problem under another force model
+    (``prm_to['pert']``, every other datum the solution's), at its ε, by the model blend
+    (:func:`model_blend`): a_p = (1 − τ) a_p,from + τ a_p,to.
+
+    The physical path, unlike the Newton homotopy f(z, τ) = (1 − τ) f(z₀) at the new model:
+    E8 at 300 revolutions, 4×4 → 4×4 + Moon + Sun at ε_f, the Newton homotopy folds at τ ≈ 0.35
+    (113 Jacobians, docs/perturbed-e6-e7-e8.md); the blend of the Moon and Sun terms converges in 13.
+    """
+    sh, prm, prm_to = model_blend(sol, prm_to)
     solved = lambda z, stats: Solution(sol.stage, sol.shooting, z, dict(prm_to), sol.transfer, stats,
                                        thrust_N=sol.thrust_N)
     try:
-        z, stats = _run(sh, sol.z, model_blend_params(prm_to, sol.prm["pert"]), label, options, path)
+        z, stats = _run(sh, sol.z, prm, label, options, path)
     except ConvergenceError as exc:
         # at τ = 1 the blend is the new model itself: a failed polish leaves its best point
         # there as the new problem's unconverged solution (``exc.end_point``)

@@ -16,8 +16,8 @@ The gain is bounded by what the blocks share: each integrates y, and the primal 
 linearisation costs far more than a column. E8 at 500 revolutions, the 4×4 → full blend on the
 exact map at the path rtol (scratch, idle machine): pass 1 1.37 s; pass 2 with 5 columns 4.93 s,
 with 10 columns 6.46 s (0.3 s a column). Side by side (``benchmarks/perturbed.py
---threads-compare``): two threads 1.14× faster there, 1.28× on the unperturbed smoothed map
-(docs/perturbed-e6-e7-e8.md, "thirty-ninth session").
+--threads-compare``, 4 rounds): two threads 1.15× faster there; 1.28× on the unperturbed
+smoothed map (scratch; docs/perturbed-e6-e7-e8.md, "thirty-ninth session").
 
 Written by hand: ``jax.pmap``/``shard_map`` over CPU devices need the device count fixed before
 JAX starts (``XLA_FLAGS=--xla_force_host_platform_device_count``), which a library cannot set for
