@@ -193,6 +193,32 @@ def test_past_a_fold_where_phi_keeps_its_sign_the_walk_goes_on_downhill_only_whe
     assert min(p.z[0] for p in s.points) < -1.0 / np.sqrt(3.0) < max(p.z[0] for p in s.points)
 
 
+# A snake: t_f = u³ − u as CUBIC, φ with roots at u = −0.9 (first branch, − → + in t_f: a
+# maximum), 1.0 (third branch, + → −: a minimum) and 1.3 (third branch: a maximum, the heavier).
+SNAKE_PHI = np.polynomial.Polynomial.fromroots([-0.9, 1.0, 1.3])
+SNAKE_MASS = -(SNAKE_PHI * np.polynomial.Polynomial([0.0, -1.0, 0.0, 1.0]).deriv()).integ()
+
+
+@pytest.mark.parametrize("window", [0.5, 1.0])
+def test_the_survey_finds_the_other_maxima_of_the_family_within_its_window(window):
+    """The E8 full 500 situation on the exact map (the maxima at 321.52 and 322.000 d on one
+    family that snakes in t_f): from the maximum at u = −0.9 (t_f 0.171) the survey follows the
+    family both ways, through both folds, and certifies the maximum at u = 1.3 (t_f 0.897), not
+    the minimum at u = 1.0; a window that does not reach t_f 0.897 finds none."""
+    fam = FoldFamily(SNAKE_PHI, SNAKE_MASS, probe_days=0.02, shape=CUBIC, max_points=100)
+    fam.opt = dataclasses.replace(fam.opt, max_arc_step=8.0, survey_days=window, survey_max_points=100)
+    s = ft.MaximumSearch(fam, tu=ft.DAY, m0_kg=1.0)
+    best = s.solve(*fam.start(-0.9))
+    maxima = s.survey(best)
+    assert maxima[0] is best
+    found = sorted(p.z[0] for p in maxima[1:])
+    if window < 0.897 - 0.171:
+        assert found == [] and min(p.tf for p in s.points) < 0.171 - window    # it left the window
+        return
+    assert found == pytest.approx([1.3], abs=1e-6) and s.folds == 2
+    assert max(maxima, key=lambda p: p.m_f).z[0] == pytest.approx(1.3, abs=1e-6)
+
+
 def test_the_march_gives_up_after_max_points():
     fam = ModelFamily(lambda t: t - 100.0, lambda t: -0.5 * (t - 100.0) ** 2, probe_days=0.5)
     fam.opt = dataclasses.replace(fam.opt, max_points=6)

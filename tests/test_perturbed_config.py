@@ -1208,6 +1208,14 @@ def test_the_end_game_rows_and_sentence_say_what_was_certified_moved_and_not_fou
     # on the exact bang-bang map the end game has no eps to lift (free_time records why)
     payloads["e8_g44_moon_sun_n500"]["extra"]["tof_maximum"]["lift"] = {"eps": None, "off": "exact map"}
     assert R.tof_maximum_rows(payloads)[-1]["lift_eps"] is None
+    # a survey of the family round the maximum: its maxima counted, their spreads, the sentence
+    assert rows[-1]["survey_maxima"] is None and "surveyed" not in text
+    payloads["e8_g44_moon_sun_n500"]["extra"]["tof_maximum"]["survey"] = {
+        "window_days": 1.0, "maxima": [[321.9997, 1843.2337830, -6e-11], [321.5230, 1843.2344100, 2e-11]]}
+    rows = R.tof_maximum_rows(payloads)
+    assert rows[-1]["survey_maxima"] == 2 and rows[-1]["survey_tof_spread_days"] == pytest.approx(0.4767)
+    assert rows[-1]["survey_m_f_spread_g"] == pytest.approx(0.627, abs=1e-6)
+    assert "2 maxima, $\\Delta t$ within 0.477 d, $m_f$ within 0.63 g" in R.tof_maximum_sentence(rows)
 
 
 def test_a_failed_polish_reports_its_best_point_beside_where_it_stopped():

@@ -46,6 +46,12 @@ its probes land on.
    solution itself lies in a bracket of the probes, Brent runs on the half of it that the
    solution's φ bounds: one value of φ alone does not tell a maximum from a minimum.
 
+6. with ``survey_days``, follows the family on from that maximum both ways by arclength
+   within a window of t_f, through its folds, certifies every other local maximum met there
+   (:meth:`MaximumSearch.survey`), and returns the heaviest: on the exact map E8 full 500's
+   family snakes in t_f with folds 0.1–0.2 d apart, and maxima that the route reaches by
+   round-off lie on it (docs/perturbed-e6-e7-e8.md, "fortieth session").
+
 The fixed-time extremal at that root satisfies every free-time row but p_t(K_f), which is φ
 there. Where no bracket is found within ``max_points`` fixed-time solves, the solution is
 returned unchanged and the record says so. Each fixed-time solve is Newton's method with chord
@@ -96,6 +102,9 @@ class MaximumOptions:
     lift_steps: int = 4             # log-uniform steps in ε between ε_f and lift_eps, each way
     lift_probe_days: float = 0.1    # δ of the search at lift_eps (E8 full 500: its maximum 1.1 d from the origin)
     lift_max_points: int = 32       # fixed-time solves of the search at lift_eps at most
+    survey_days: float = 0.0        # after a certified maximum: the other local maxima on its family within
+    # this many days of it, the heaviest returned (MaximumSearch.survey; 0: off)
+    survey_max_points: int = 40     # fixed-time solves of the survey each way at most
     jump_tol: float = 1e-9          # a step whose m_f moves against φ's sign by more (relative) left another branch
     verbose: bool = True
     label: str = ""
@@ -391,28 +400,22 @@ class MaximumSearch:
                 h = min(2.0 * h, self.delta)
         return f"no sign change of phi within {self.budget} fixed-time solves"
 
-    def follow_arc(self, trail: list[FixedTimePoint]):
-        """The family followed uphill in m_f by pseudo-arclength steps (Keller) from the last point
-        of ``trail``, where steps in t_f fail: round a fold in t_f, onto the branch beyond it.
+    def arc_steps(self, trail: list[FixedTimePoint]):
+        """The family followed by pseudo-arclength steps (Keller) from the last point of
+        ``trail``, away from the one before it: yields (previous point, new point, fold) for each
+        solved step (the point kept) and the t_f component of the family's unit tangent there, in
+        the walk's direction: (previous, point, fold, dt_f/ds). It stops where the corrector fails
+        at the smallest step or the budget of solved points is spent; ``arc_end`` then says which.
 
         Points x = (z, t_f), inner product ⟨x, y⟩ = θ² x_z·y_z + x_t y_t with θ = |Δt_f|/|Δz| of
         the trail's last secant (its z and t_f parts weigh the same). Each step: predictor x + h v
         along the unit tangent v (:meth:`FixedTimeFamily.tangent`, oriented along the secant
         from the point before), corrector F = 0 with ⟨v, x − x_pred⟩ = 0
         (:meth:`FixedTimeFamily.correct`, from a fresh Jacobian: the tangent at the new point
-        needs its own, as ∂F/∂z changes fast near a fold); h starts at a quarter of the secant's length, doubles
-        after each solved step up to ``max_arc_step`` times that length, halves where the corrector
-        fails (down to 1/64 of the secant).
-        Along the family dm_f/ds = −m₀ φ dt_f/ds (the envelope relation): the march is uphill
-        while −φ v_t > 0. A fold (v_t changes sign) where φ changes sign too keeps it uphill; one
-        where φ keeps its sign is a maximum of m_f along the family that is no free-time
-        extremal (φ ≠ 0): the search stops there, or, up to ``downhill_folds`` times, goes on
-        downhill along the family until m_f rises again (past a minimum of m_f along it: a
-        further fold, or a crossing of φ from + to − in t_f) and on uphill as before (E8 450
-        rev, full model: the branch through the route's end point folds 0.001 d above it with
-        φ ≠ 0, docs/perturbed-e6-e7-e8.md, "twenty-fourth session"). Between two points with no
-        fold, a crossing of φ from − to + in t_f is the bracket of a local maximum, uphill or
-        down."""
+        needs its own, as ∂F/∂z changes fast near a fold); h starts at a quarter of the secant's
+        length, doubles after each solved step up to ``max_arc_step`` times that length, halves
+        where the corrector fails (down to 1/64 of the secant). ``fold``: the tangent's t_f
+        component changed sign between the two points (a fold in t_f passed)."""
         fam = self.family
         a, last = trail[-2], trail[-1]
         secant = last.x - a.x
@@ -422,26 +425,45 @@ class MaximumSearch:
         h_secant = np.sqrt(inner(secant, secant))
         h_max = self.opt.max_arc_step * h_secant
         h, v = h_secant / 4, unit(fam.tangent(last), secant)
-        descending = False          # on a stretch past a fold with φ ≠ 0, where m_f falls along the family
         self.log(f"  arclength from t_f {self.days(last.tf):.5f} d")
+        self.arc_end = f"no sign change of phi within {self.budget} fixed-time solves"
         while self.within_budget():
-            x_pred = last.x + h * v
-            p = fam.correct(x_pred, np.append(theta2 * v[:-1], v[-1]))
+            p = fam.correct(last.x + h * v, np.append(theta2 * v[:-1], v[-1]))
             if p is None:
                 self.log(f"  arclength step {h / h_secant:.3g} of the secant failed")
                 if h <= h_secant / 64:
-                    return f"the fixed-time family could not be followed past t_f {self.days(last.tf):.5f} d (arclength)"
+                    self.arc_end = f"the fixed-time family could not be followed past t_f {self.days(last.tf):.5f} d (arclength)"
+                    return
                 h *= 0.5
                 continue
             self.arc_points += 1
             w = unit(fam.tangent(p), p.x - last.x)
-            fold = np.sign(w[-1]) != np.sign(v[-1])
+            fold = bool(np.sign(w[-1]) != np.sign(v[-1]))
             self.folds += int(fold)
             self.keep(p, ", a fold in t_f passed" if fold else "")
+            yield last, p, fold, float(w[-1])
+            last, v, h = p, w, min(2.0 * h, h_max)
+
+    def follow_arc(self, trail: list[FixedTimePoint]):
+        """The family followed uphill in m_f (:meth:`arc_steps`) from the last point of ``trail``,
+        where steps in t_f fail: round a fold in t_f, onto the branch beyond it.
+
+        Along the family dm_f/ds = −m₀ φ dt_f/ds (the envelope relation): the march is uphill
+        while −φ dt_f/ds > 0. A fold where φ changes sign too keeps it uphill; one
+        where φ keeps its sign is a maximum of m_f along the family that is no free-time
+        extremal (φ ≠ 0): the search stops there, or, up to ``downhill_folds`` times, goes on
+        downhill along the family until m_f rises again (past a minimum of m_f along it: a
+        further fold, or a crossing of φ from + to − in t_f) and on uphill as before (E8 450
+        rev, full model: the branch through the route's end point folds 0.001 d above it with
+        φ ≠ 0, docs/perturbed-e6-e7-e8.md, "twenty-fourth session"). Between two points with no
+        fold, a crossing of φ from − to + in t_f is the bracket of a local maximum, uphill or
+        down."""
+        descending = False          # on a stretch past a fold with φ ≠ 0, where m_f falls along the family
+        for last, p, fold, dtf_ds in self.arc_steps(trail):
             left, right = sorted((last, p), key=lambda q: q.tf)
             if not fold and left.phi < 0.0 < right.phi:
                 return left, right
-            uphill = -p.phi * w[-1] > 0.0
+            uphill = -p.phi * dtf_ds > 0.0
             if not uphill and not descending:
                 if not (fold and self.downhill < self.opt.downhill_folds):
                     return (f"the family folds between t_f {self.days(last.tf):.5f} and {self.days(p.tf):.5f} d "
@@ -450,8 +472,42 @@ class MaximumSearch:
                 self.downhill += 1
                 self.log(f"  on downhill past the fold ({self.downhill} of {self.opt.downhill_folds})")
             descending = not uphill
-            last, v, h = p, w, min(2.0 * h, h_max)
-        return f"no sign change of phi within {self.budget} fixed-time solves"
+        return self.arc_end
+
+    def survey(self, best: FixedTimePoint) -> list[FixedTimePoint]:
+        """The local maxima of m_f in t_f on the family through the certified maximum ``best``
+        within ``survey_days`` of it, ``best`` first. The family is followed each way from a
+        step of δ in t_f by arclength (:meth:`arc_steps`), through its folds, until t_f leaves
+        the window or ``survey_max_points`` solves are spent; each crossing of φ from − to + in
+        t_f between two points with no fold between them is solved by Brent (:meth:`root`).
+
+        E8 full 500 on the exact map: the family snakes in t_f with folds 0.1–0.2 d apart, and
+        the maxima at 321.52 d and 322.000 d lie on one connected family (m_f 0.6 g apart),
+        which the route's blend reaches at one place or another by round-off
+        (docs/perturbed-e6-e7-e8.md, "fortieth session"). The heaviest maximum of the window
+        does not depend on where the route landed, as long as the window holds the others."""
+        window = self.opt.survey_days * DAY / self.tu
+        maxima = [best]
+        for direction in (-1.0, 1.0):
+            self.budget = len(self.points) + len(self.lifted) + self.opt.survey_max_points
+            first, _ = self.advance([best], direction, self.delta)
+            if first is None:
+                self.log(f"  survey: no step from the maximum {'down' if direction < 0 else 'up'} in t_f")
+                continue
+            for last, p, fold, _ in self.arc_steps([best, first]):
+                left, right = sorted((last, p), key=lambda q: q.tf)
+                if not fold and left.phi < 0.0 < right.phi:
+                    try:
+                        root = self.root(left, right)
+                    except _NewtonFailed as exc:
+                        self.log(f"  survey: fixed-time Newton failed inside the bracket at t_f {self.days(exc.tf):.5f} d")
+                    else:
+                        maxima.append(root)
+                        self.log(f"  survey: a local maximum at t_f {self.days(root.tf):.5f} d, "
+                                 f"m_f {root.m_f * self.m0:.6f} kg")
+                if abs(p.tf - best.tf) > window:
+                    break
+        return maxima
 
     def move_eps(self, p: FixedTimePoint, eps_to: float) -> FixedTimePoint | None:
         """The fixed-time point ``p`` (at the family's ε) moved to ``eps_to`` at its t_f, in
@@ -597,6 +653,12 @@ def maximise_final_mass(sol, options: MaximumOptions | None = None):
             except _NewtonFailed as exc:
                 status = f"fixed-time Newton failed inside the bracket at t_f {search.days(exc.tf):.5f} d"
             else:
+                if opt.survey_days > 0.0:
+                    maxima = search.survey(best)
+                    record["survey"] = {"window_days": opt.survey_days, "first_tof_days": search.days(best.tf),
+                                        "maxima": [[search.days(p.tf), p.m_f * tr.m0, p.phi]
+                                                   for p in sorted(maxima, key=lambda p: p.tf)]}
+                    best = max(maxima, key=lambda p: p.m_f)
                 out = dataclasses.replace(sol, z=best.z, stats=dict(sol.stats))
                 record.update({"tof_days": search.days(best.tf), "m_f_kg": best.m_f * tr.m0,
                                "m_f_gain_kg": (best.m_f - origin.m_f) * tr.m0, "phi": best.phi})

@@ -95,7 +95,7 @@ def tables(payloads: dict, run: list, cases: dict, e6: dict, e8_n: list) -> dict
 
 TOF_MAXIMUM_COLUMNS = ["solve", "start", "status", "t0_days", "tof_days", "m_f_gain_g", "fixed_time_solves",
                        "jacobian_evaluations", "arclength_points", "folds_passed", "downhill_folds_passed",
-                       "lift_eps", "wall_time_s"]
+                       "lift_eps", "survey_maxima", "survey_tof_spread_days", "survey_m_f_spread_g", "wall_time_s"]
 MOVED_DAYS = 1e-3       # an end game that changed Δt by more than this moved the extremal
 
 
@@ -107,7 +107,9 @@ def tof_maximum_rows(payloads: dict) -> list[dict]:
     folds of the fixed-time family it went round, and of those, the ones with φ ≠ 0 past which it
     went on downhill in m_f (``MaximumOptions.downhill_folds``; older records have none), and the
     smoothing ε at which it searched again where it found no maximum at ε_f (``lift_eps``,
-    ``MaximumSearch.across_branches``; None where it did not)."""
+    ``MaximumSearch.across_branches``; None where it did not), and where it surveyed the family
+    round its maximum (``MaximumSearch.survey``), the local maxima found there (the solution is the
+    heaviest) and their spread in Δt and in m_f."""
     rows = []
     for key in sorted(payloads):
         extra = payloads[key].get("extra", {})
@@ -119,8 +121,18 @@ def tof_maximum_rows(payloads: dict) -> list[dict]:
                          "m_f_gain_g": rec["m_f_gain_kg"] * 1e3 if "m_f_gain_kg" in rec else None,
                          **{k: rec[k] for k in ("fixed_time_solves", "jacobian_evaluations", "wall_time_s")},
                          **{k: rec.get(k) for k in ("arclength_points", "folds_passed", "downhill_folds_passed")},
-                         "lift_eps": rec.get("lift", {}).get("eps")})
+                         "lift_eps": rec.get("lift", {}).get("eps"), **_survey_columns(rec.get("survey"))})
     return rows
+
+
+def _survey_columns(survey: dict | None) -> dict:
+    """The survey's columns of :func:`tof_maximum_rows`: the count of maxima, and the spread of
+    their Δt (days) and final mass (g); None where the end game made no survey."""
+    if not survey:
+        return {"survey_maxima": None, "survey_tof_spread_days": None, "survey_m_f_spread_g": None}
+    tof, m_f = (np.array([m[i] for m in survey["maxima"]]) for i in (0, 1))
+    return {"survey_maxima": len(tof), "survey_tof_spread_days": float(np.ptp(tof)),
+            "survey_m_f_spread_g": float(np.ptp(m_f)) * 1e3}
 
 
 def tof_maximum_sentence(rows: list[dict]) -> str:
@@ -165,6 +177,14 @@ def tof_maximum_sentence(rows: list[dict]) -> str:
                  "$\\varepsilon_f$ certified the maximum of the branch it landed on (" +
                  ", ".join(f"{latex_escape(r['solve'])}: $\\varepsilon$ {r['lift_eps']:g}, $\\Delta t$ "
                            f"{r['t0_days']:.4f} $\\to$ {r['tof_days']:.4f} d" for r in lifted) + ").")
+    surveyed = [r for r in certified if r.get("survey_maxima")]
+    if surveyed:
+        text += (" Where the end game surveyed the family round its maximum (followed by arclength both ways "
+                 "within a window of $t_f$, every sign change of $\\varphi$ from $-$ to $+$ solved), the solution "
+                 "is the heaviest local maximum found (" +
+                 ", ".join(f"{latex_escape(r['solve'])}: {r['survey_maxima']} maxima, $\\Delta t$ within "
+                           f"{r['survey_tof_spread_days']:.3f} d, $m_f$ within {r['survey_m_f_spread_g']:.2f} g"
+                           for r in surveyed) + ").")
     if failed:
         text += (" The search did not certify " + ", ".join(
             f"{latex_escape(r['solve'])} ({latex_escape(r['status'])})" for r in failed) + ".")
