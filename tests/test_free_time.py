@@ -263,6 +263,19 @@ def test_the_perturbed_extremal_is_certified_a_maximum_and_kept(perturbed_e1):
     np.testing.assert_allclose(out.z, sol.z, rtol=1e-6, atol=1e-9)
 
 
+def test_the_survey_of_a_family_with_one_maximum_keeps_it_and_records_it(perturbed_e1):
+    """E1 4×4 (m_f(t_f) smooth, one maximum): the survey walks ±0.03 d from the certified maximum
+    and finds no other; the record lists the one maximum, and the solution is the same."""
+    sol, opt, (out, rec) = perturbed_e1
+    out_s, rec_s = ft.maximise_final_mass(sol, dataclasses.replace(opt, survey_days=0.03, survey_max_points=12))
+    assert rec_s["certified"] and rec_s["survey"]["window_days"] == 0.03
+    assert rec_s["survey"]["maxima"] == [[rec_s["tof_days"], rec_s["m_f_kg"], rec_s["phi"]]]
+    assert rec_s["tof_days"] == rec["tof_days"] and rec_s["survey"]["first_tof_days"] == rec["tof_days"]
+    points = [p[0] for p in rec_s["points"]]
+    assert min(points) < rec["tof_days"] - 0.03 and max(points) > rec["tof_days"] + 0.03   # the window walked
+    np.testing.assert_array_equal(out_s.z, out.z)
+
+
 def test_the_envelope_relation_holds_on_the_fixed_time_family(perturbed_e1):
     """dm_f/dt_f = −m₀ φ: the mass change from the maximum to each probe equals the trapezoid
     integral of −m₀ φ (φ nearly linear over 0.01 d)."""
