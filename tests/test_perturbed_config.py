@@ -8,6 +8,7 @@ import pytest
 import yaml
 
 from spaceopt.errors import ConfigError
+from spaceopt.indirect import free_time as ft
 from spaceopt.studies import perturbed as P
 from spaceopt.studies import perturbed_report as R
 
@@ -1314,3 +1315,6 @@ def test_the_exact_e8_profile_validates_and_selects_the_exact_route():
     assert steps["g44_moon_sun"]["path"] == "arclength" and steps["g44_moon_sun"]["step_rcond"] > 0
     kw = P.warm_start_kwargs(pc, "e8", "g44_moon_sun", n_rev=500)
     assert kw["eps_smooth"] is None and kw["model_step_eps"] is None
+    settings = P.tof_maximum_settings(pc, "e8")           # the survey added to the study's end game
+    assert settings["survey_days"] > 0 and settings["probe_days"] == PC["numerics"]["tof_maximum"]["probe_days"]
+    assert ft.MaximumOptions(**settings).survey_days == settings["survey_days"]
