@@ -402,9 +402,9 @@ class MaximumSearch:
 
     def arc_steps(self, trail: list[FixedTimePoint]):
         """The family followed by pseudo-arclength steps (Keller) from the last point of
-        ``trail``, away from the one before it: yields (previous point, new point, fold) for each
-        solved step (the point kept) and the t_f component of the family's unit tangent there, in
-        the walk's direction: (previous, point, fold, dt_f/ds). It stops where the corrector fails
+        ``trail``, away from the one before it. Each solved step (its point kept) yields
+        (previous point, new point, fold, dt_f/ds): dt_f/ds is the t_f component of the family's
+        unit tangent at the new point, in the walk's direction. It stops where the corrector fails
         at the smallest step or the budget of solved points is spent; ``arc_end`` then says which.
 
         Points x = (z, t_f), inner product ⟨x, y⟩ = θ² x_z·y_z + x_t y_t with θ = |Δt_f|/|Δz| of

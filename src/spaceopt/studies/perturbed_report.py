@@ -182,7 +182,7 @@ def tof_maximum_sentence(rows: list[dict]) -> str:
         text += (" Where the end game surveyed the family round its maximum (followed by arclength both ways "
                  "within a window of $t_f$, every sign change of $\\varphi$ from $-$ to $+$ solved), the solution "
                  "is the heaviest local maximum found (" +
-                 ", ".join(f"{latex_escape(r['solve'])}: {r['survey_maxima']} maxima, $\\Delta t$ within "
+                 ", ".join(f"{latex_escape(r['solve'])}: {r['survey_maxima']} maxim{'um' if r['survey_maxima'] == 1 else 'a'}, $\\Delta t$ within "
                            f"{r['survey_tof_spread_days']:.3f} d, $m_f$ within {r['survey_m_f_spread_g']:.2f} g"
                            for r in surveyed) + ").")
     if failed:
