@@ -477,8 +477,9 @@ class MaximumSearch:
     def survey(self, best: FixedTimePoint) -> list[FixedTimePoint]:
         """The local maxima of m_f in t_f on the family through the certified maximum ``best``
         within ``survey_days`` of it, ``best`` first. The family is followed each way from a
-        step of δ in t_f by arclength (:meth:`arc_steps`), through its folds, until t_f leaves
-        the window or ``survey_max_points`` solves are spent; each crossing of φ from − to + in
+        step of δ in t_f by arclength (:meth:`arc_steps`), through its folds, until t_f first
+        leaves the window (a sheet that comes back into it is not followed) or
+        ``survey_max_points`` solves are spent; each crossing of φ from − to + in
         t_f between two points with no fold between them is solved by Brent (:meth:`root`).
 
         E8 full 500 on the exact map: the family snakes in t_f with folds 0.1–0.2 d apart, and
