@@ -246,6 +246,14 @@ def _interpolate(points: list[FixedTimePoint], tf: float) -> np.ndarray:
     return (1.0 - w) * below.z + w * above.z
 
 
+def _crossing(last: FixedTimePoint, p: FixedTimePoint, fold: bool):
+    """(left, right), two neighbours of an arclength walk in order of t_f, where φ crosses from −
+    to + between them and no fold lies between them (the bracket of a local maximum of m_f in
+    t_f); None otherwise."""
+    left, right = sorted((last, p), key=lambda q: q.tf)
+    return (left, right) if not fold and left.phi < 0.0 < right.phi else None
+
+
 def extrapolate(trail: list[FixedTimePoint], tf: float, e_t: np.ndarray) -> np.ndarray:
     """The start at ``tf`` beyond the solved ``trail``: the polynomial in t_f through its last
     (up to three) points; from a single point its tangent dz/dt_f = J⁻¹ e_t (∂f/∂t_f = −e_t,
@@ -460,9 +468,9 @@ class MaximumSearch:
         down."""
         descending = False          # on a stretch past a fold with φ ≠ 0, where m_f falls along the family
         for last, p, fold, dtf_ds in self.arc_steps(trail):
-            left, right = sorted((last, p), key=lambda q: q.tf)
-            if not fold and left.phi < 0.0 < right.phi:
-                return left, right
+            found = _crossing(last, p, fold)
+            if found:
+                return found
             uphill = -p.phi * dtf_ds > 0.0
             if not uphill and not descending:
                 if not (fold and self.downhill < self.opt.downhill_folds):
@@ -496,10 +504,10 @@ class MaximumSearch:
                 self.log(f"  survey: no step from the maximum {'down' if direction < 0 else 'up'} in t_f")
                 continue
             for last, p, fold, _ in self.arc_steps([best, first]):
-                left, right = sorted((last, p), key=lambda q: q.tf)
-                if not fold and left.phi < 0.0 < right.phi:
+                found = _crossing(last, p, fold)
+                if found:
                     try:
-                        root = self.root(left, right)
+                        root = self.root(*found)
                     except _NewtonFailed as exc:
                         self.log(f"  survey: fixed-time Newton failed inside the bracket at t_f {self.days(exc.tf):.5f} d")
                     else:
