@@ -1,6 +1,6 @@
 """Benchmark of the perturbed §4.2 studies (issue #3: E8 500-rev chain ≤ 10 min on 2 cores; E6 scan).
 
-Seven parts, all written to ``results/benchmarks/perturbed.json`` (parts not rerun are kept):
+Eight parts, all written to ``results/benchmarks/perturbed.json`` (parts not rerun are kept):
 
 1. ``measured``: wall times read from the solve artifacts that exist (provenance wall_time_s of
    results/perturbed/**/<stage>.json): each E5/E7/E9 chain, every E6 date and the scan total,
@@ -38,11 +38,16 @@ Seven parts, all written to ``results/benchmarks/perturbed.json`` (parts not rer
    threads (default 2), side by side (:func:`threads_comparison`). ``--threads k`` alone runs
    the whole benchmark with k threads per Jacobian (recorded in ``machine``; the exact route's
    key gets ``_threads<k>``).
+8. ``sensitivity`` (``--sensitivity-compare N``): one Jacobian of the E8 4×4 → full blend on the
+   exact map at N revolutions with its sensitivities at the path rtol and at ``--sensitivity-rtol``
+   (default 1e-9), side by side, with Newton's contraction ‖J⁻¹ δJ‖ (:func:`sensitivity_comparison`).
+   ``--exact-route-sensitivity-rtol X [Y …]`` runs the exact route once per value (key ``_sens<X>``).
 
 Usage:
   python benchmarks/perturbed.py [--revs 5] [--rounds 10] [--baseline REV] [--e8-revs 200 ...]
                                  [--skip-propagation] [--skip-e8] [--profile] [--exact-route N ...]
                                  [--corrector-compare N ...] [--threads K] [--threads-compare N ...]
+                                 [--exact-route-sensitivity-rtol X ...] [--sensitivity-compare N ...]
 """
 from __future__ import annotations
 
@@ -372,16 +377,17 @@ def e8_chain(n_rev: float, model: str, start=None) -> tuple[dict, object]:
     return rec, ot
 
 
-def _e8_at_eps_blend(pc: dict, model: str, n_rev: float):
+def _e8_at_eps_blend(pc: dict, model: str, n_rev: float, sensitivity_rtol: float | None = None):
     """The E8 transfer of ``model`` at ``n_rev`` whose smoothing stops at ε₁ = eps_blend, single
-    shooting (the start of the exact route and of the corrector comparison)."""
+    shooting (the start of the exact route and of the corrector comparison), with the exact map's
+    ``sensitivity_rtol`` (None: the residual's tolerance)."""
     import dataclasses
 
     from spaceopt.studies import perturbed as P
 
     eph = P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"])
     tr = P.transfer_from_config(pc, "e8", model, ephemeris=eph, n_rev=n_rev)
-    return dataclasses.replace(tr, eps_final=tr.eps_blend, path_arcs=1)
+    return dataclasses.replace(tr, eps_final=tr.eps_blend, path_arcs=1, sensitivity_rtol=sensitivity_rtol)
 
 
 def _propellant_and_time(sol) -> dict:
@@ -396,7 +402,8 @@ def _propellant_and_time(sol) -> dict:
             "tof_days": float(yf[hm.TIME]) * u["time_s"] / 86400.0}
 
 
-def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | None = None) -> dict:
+def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | None = None,
+                   sensitivity_rtol: float | None = None) -> dict:
     """The E8 route to every model of the case at ``n_rev`` on the exact bang-bang map
     (:mod:`spaceopt.indirect.exact_switching`), each stage timed: the unperturbed chain from the
     zero guess to ε₁ = eps_blend only (no descent in ε), the exact unperturbed extremal by Newton
@@ -410,7 +417,9 @@ def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | No
     ``ContinuationOptions``); the warm starts keep Newton's, as the case option does
     (``perturbed.case_corrector``). Each model blend follows the case's ``model_step`` for its
     model (the full model's: arclength, truncated-SVD steps), as ``config/e8_exact.yaml`` does.
-    ``last_model``: the route stops after that model (no end game unless it is the case's last)."""
+    ``last_model``: the route stops after that model (no end game unless it is the case's last).
+    ``sensitivity_rtol``: the exact map's Jacobians at that looser rtol (``Shooting.sensitivity_rtol``,
+    the case option of ``config/e8_exact.yaml``); None: at the residual's."""
     from spaceopt.indirect import chain
     from spaceopt.indirect.free_time import MaximumOptions, maximise_final_mass
     from spaceopt.studies import perturbed as P
@@ -422,7 +431,7 @@ def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | No
     options = chain.ContinuationOptions(corrector=corrector)
 
     def transfer(model):
-        return _e8_at_eps_blend(pc, model, n_rev)
+        return _e8_at_eps_blend(pc, model, n_rev, sensitivity_rtol)
 
     stages, t_route = {}, time.perf_counter()
 
@@ -431,7 +440,7 @@ def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | No
         stages[name] = {"wall_time_s": time.perf_counter() - t0, "jacobian_evaluations": jacobians, **m_p_and_tof}
         print(f"[{label}] {name}: {stages[name]}", file=sys.stderr, flush=True)
 
-    out = {"n_rev": n_rev, "corrector": corrector, "stages": stages}
+    out = {"n_rev": n_rev, "corrector": corrector, "sensitivity_rtol": sensitivity_rtol, "stages": stages}
     try:
         t0 = time.perf_counter()
         lp, smooth = P.solve_for(transfer(models[0]), f"{label}/{models[0]}",
@@ -495,29 +504,79 @@ def corrector_comparison(n_rev: float) -> dict:
     return out
 
 
-def threads_comparison(n_rev: float, k: int, rounds: int) -> dict:
-    """One Jacobian of the E8 4×4 → full model blend at τ = 0.5 (``n_rev`` revolutions, from the
-    DAG's 4×4 artifact and on its map, at the path rtol), with the sensitivity columns in one
-    computation and split over ``k`` threads (:mod:`spaceopt.indirect.column_threads`), side by
-    side: both compiled first, then ``rounds`` rounds in alternating order; wall times, their
-    paired median ratio, and the largest differences of f, ∂f/∂z, ∂f/∂τ and the steps."""
+def _blend_jacobian_at(n_rev: float, sensitivity_rtol: float | None = None):
+    """The E8 4×4 → full model blend at ``n_rev`` revolutions from the DAG's 4×4 artifact, on
+    its map: (layout, z, data, path tolerances) of its Jacobian at τ = 0.5."""
     import dataclasses
 
-    import jax
     import jax.numpy as jnp
-    import numpy as np
     from spaceopt.indirect import chain
-    from spaceopt.indirect.column_threads import THREADS_ENV
-    from spaceopt.indirect.shooting import shoot
     from spaceopt.studies import perturbed as P
 
     pc = _perturbed_config()
     start = P.load(ROOT / "results" / "perturbed" / "e8" / f"g44_n{n_rev:g}.json")
     tr = dataclasses.replace(P.transfer_from_config(
         pc, "e8", "g44_moon_sun", n_rev=n_rev,
-        ephemeris=P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"])), path_arcs=1)
+        ephemeris=P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"])), path_arcs=1,
+        sensitivity_rtol=sensitivity_rtol)
     sh, prm, _ = chain.model_blend(P.warm_start_integration(start, tr), tr.params(thrust=start.thrust_N))
-    z, tol, before = jnp.asarray(start.z), chain._path_tolerances(sh), os.environ.get(THREADS_ENV)
+    return sh, jnp.asarray(start.z), prm, chain._path_tolerances(sh)
+
+
+def sensitivity_comparison(n_rev: float, sensitivity_rtol: float, rounds: int) -> dict:
+    """One Jacobian of the E8 4×4 → full blend at τ = 0.5 (``n_rev`` revolutions, the DAG's 4×4
+    artifact, which must be on the exact map) with the sensitivities at the path rtol and at
+    ``sensitivity_rtol`` (``Shooting.sensitivity_rtol``), side by side: both compiled first, then
+    ``rounds`` rounds in alternating order; wall times and their paired median ratio, the steps,
+    the largest difference of f (none: both from pass 1) and ‖J⁻¹ δJ‖₂, the rate at which Newton
+    with the looser Jacobian converges at best."""
+    import dataclasses
+
+    import jax
+    import numpy as np
+    from spaceopt.indirect.shooting import shoot
+
+    sh, z, prm, tol = _blend_jacobian_at(n_rev)
+    if sh.switching != "exact":
+        raise SystemExit(f"--sensitivity-compare {n_rev:g}: the 4x4 artifact is on the {sh.switching} map, "
+                         "not the exact one (make it with --configfile config/e8_exact.yaml)")
+    layouts = {"path_rtol": sh, "sensitivity_rtol": dataclasses.replace(sh, sensitivity_rtol=sensitivity_rtol)}
+
+    def run(name):
+        t0 = time.perf_counter()
+        out = jax.block_until_ready(shoot(layouts[name], z, 0.5, prm, *tol))
+        return out, time.perf_counter() - t0
+
+    tight, loose = run("path_rtol")[0], run("sensitivity_rtol")[0]
+    times = {name: [] for name in layouts}
+    for i in range(rounds):
+        for name in (tuple(layouts) if i % 2 == 0 else tuple(reversed(layouts))):
+            times[name].append(run(name)[1])
+    J, J_loose = np.asarray(tight[1]), np.asarray(loose[1])
+    return {"n_rev": n_rev, "map": sh.switching, "path_rtol": tol[0], "sensitivity_rtol": sensitivity_rtol,
+            "rounds": rounds, "wall_time_s": times,
+            "median_ratio_path_over_sensitivity": float(np.median(np.array(times["path_rtol"])
+                                                                  / np.array(times["sensitivity_rtol"]))),
+            "steps": {"path_rtol": int(tight[3]), "sensitivity_rtol": int(loose[3])},
+            "max_abs_diff_f": float(np.abs(np.asarray(tight[0]) - np.asarray(loose[0])).max()),
+            "newton_contraction": float(np.linalg.norm(np.linalg.solve(J_loose, J_loose - J), 2)),
+            "cond_J": float(np.linalg.cond(J))}
+
+
+def threads_comparison(n_rev: float, k: int, rounds: int) -> dict:
+    """One Jacobian of the E8 4×4 → full model blend at τ = 0.5 (``n_rev`` revolutions, from the
+    DAG's 4×4 artifact and on its map, at the path rtol), with the sensitivity columns in one
+    computation and split over ``k`` threads (:mod:`spaceopt.indirect.column_threads`), side by
+    side: both compiled first, then ``rounds`` rounds in alternating order; wall times, their
+    paired median ratio, and the largest differences of f, ∂f/∂z, ∂f/∂τ and the steps."""
+    import jax
+    import jax.numpy as jnp
+    import numpy as np
+    from spaceopt.indirect.column_threads import THREADS_ENV
+    from spaceopt.indirect.shooting import shoot
+
+    sh, z, prm, tol = _blend_jacobian_at(n_rev)
+    before = os.environ.get(THREADS_ENV)
 
     def run(threads):
         os.environ[THREADS_ENV] = str(threads)
@@ -609,6 +668,12 @@ def main(argv=None):
     ap.add_argument("--exact-route-corrector", choices=("newton", "chord"), default="newton",
                     help="the continuation corrector of the exact route's paths")
     ap.add_argument("--exact-route-to", default=None, help="the exact route's last model (default: the case's last)")
+    ap.add_argument("--exact-route-sensitivity-rtol", type=float, nargs="*", default=[None],
+                    help="the exact route's Jacobian rtol (Shooting.sensitivity_rtol); several: one route each")
+    ap.add_argument("--sensitivity-compare", type=float, nargs="*", default=[],
+                    help="revolution counts of the E8 blend Jacobian on the exact map, the path rtol against "
+                         "--sensitivity-rtol (sensitivity)")
+    ap.add_argument("--sensitivity-rtol", type=float, default=1e-9)
     ap.add_argument("--corrector-compare", type=float, nargs="*", default=[],
                     help="revolution counts of the E8 LP -> OT path with either corrector (corrector)")
     ap.add_argument("--profile", action="store_true", help="field cost per force model (kernels, us/eval)")
@@ -625,7 +690,7 @@ def main(argv=None):
     out_path = Path(a.out)
     report = json.loads(out_path.read_text()) if out_path.exists() else {}
     report = {k: v for k, v in report.items()
-              if k in ("propagation", "e8", "field_profile", "e8_exact_route", "corrector", "threads")}
+              if k in ("propagation", "e8", "field_profile", "e8_exact_route", "corrector", "threads", "sensitivity")}
     report["machine"] = {"cpu_count": os.cpu_count(), "load_avg_start": os.getloadavg(),
                          "jacobian_threads": int(os.environ.get("SPACEOPT_THREADS", "1"))}
     report["measured"] = measured(Path(a.results))
@@ -656,10 +721,16 @@ def main(argv=None):
                 report["e8_published_500"] = published_500()
                 write()
     for n in a.exact_route:
-        key = f"n{n:g}" + ("" if a.exact_route_corrector == "newton" else f"_{a.exact_route_corrector}") + \
-            (f"_to_{a.exact_route_to}" if a.exact_route_to else "") + \
-            (f"_threads{report['machine']['jacobian_threads']}" if report["machine"]["jacobian_threads"] > 1 else "")
-        report.setdefault("e8_exact_route", {})[key] = e8_exact_route(n, a.exact_route_corrector, a.exact_route_to)
+        for sens in a.exact_route_sensitivity_rtol:
+            key = f"n{n:g}" + ("" if a.exact_route_corrector == "newton" else f"_{a.exact_route_corrector}") + \
+                (f"_to_{a.exact_route_to}" if a.exact_route_to else "") + \
+                (f"_threads{report['machine']['jacobian_threads']}" if report["machine"]["jacobian_threads"] > 1 else "") + \
+                (f"_sens{sens:g}" if sens is not None else "")
+            report.setdefault("e8_exact_route", {})[key] = e8_exact_route(n, a.exact_route_corrector, a.exact_route_to,
+                                                                          sens)
+            write()
+    for n in a.sensitivity_compare:
+        report.setdefault("sensitivity", {})[f"n{n:g}"] = sensitivity_comparison(n, a.sensitivity_rtol, a.rounds)
         write()
     for n in a.threads_compare:
         report.setdefault("threads", {})[f"n{n:g}"] = threads_comparison(n, a.threads or 2, a.rounds)

@@ -12,7 +12,8 @@ import yaml
 from spaceopt.errors import ConfigError
 from spaceopt.indirect import chain, exact_switching as X, hamiltonians as hm
 from spaceopt.indirect.flow import Model
-from spaceopt.indirect.shooting import Shooting, final_state, initial_state, residual, shoot
+from spaceopt.indirect.shooting import (Shooting, final_state, initial_state, residual, sensitivity_tolerances,
+                                       shoot)
 from spaceopt.studies import multirev
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -115,6 +116,29 @@ def test_the_columns_propagated_in_threads_give_the_same_map(smoothed, monkeypat
     monkeypatch.setenv("SPACEOPT_THREADS", "two")
     with pytest.raises(ConfigError, match="SPACEOPT_THREADS='two': expected a positive integer"):
         shoot(sh, z, 1.0, ot.prm)
+
+
+def test_the_sensitivities_at_a_looser_tolerance_keep_f_and_the_root(smoothed):
+    """Shooting.sensitivity_rtol: pass 2 (Φ) at the looser tolerance, in fewer steps; f stays
+    pass 1's, the residual map's, to the bit; ∂f/∂z moves within Newton's margin
+    (‖J⁻¹ δJ‖ < 0.1); Newton from the smoothed root lands on the same exact extremal."""
+    ot, sh = smoothed
+    z = jnp.asarray(ot.z)
+    loose = dataclasses.replace(sh, sensitivity_rtol=1e-7)
+    assert sensitivity_tolerances(loose, 1e-11, 1e-12) == (1e-7, pytest.approx(1e-8))
+    assert sensitivity_tolerances(loose, 1e-6, 1e-7) == (1e-6, 1e-7)
+    assert sensitivity_tolerances(sh, 1e-11, 1e-12) == (1e-11, 1e-12)
+    f, J, _, steps, _ = shoot(sh, z, 1.0, ot.prm)
+    f_l, J_l, _, steps_l, ok = shoot(loose, z, 1.0, ot.prm)
+    assert bool(ok) and int(steps_l) < int(steps)
+    np.testing.assert_array_equal(f_l, residual(sh, z, 1.0, ot.prm)[0])
+    np.testing.assert_array_equal(f_l, f)
+    rho = np.linalg.norm(np.linalg.solve(J, J_l - J), 2)
+    assert 0 < rho < 0.1
+    ex = chain.to_exact(ot)
+    ex_l = chain.to_exact(dataclasses.replace(ot, shooting=dataclasses.replace(ot.shooting, sensitivity_rtol=1e-7)))
+    assert ex_l.shooting.sensitivity_rtol == 1e-7
+    np.testing.assert_allclose(ex_l.z, ex.z, rtol=0, atol=1e-9)
 
 
 def test_newton_from_the_smoothed_root_lands_on_the_exact_extremal(smoothed):

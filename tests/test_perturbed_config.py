@@ -8,7 +8,7 @@ import pytest
 import yaml
 
 from spaceopt.errors import ConfigError
-from spaceopt.indirect import free_time as ft
+from spaceopt.indirect import chain, free_time as ft
 from spaceopt.studies import perturbed as P
 from spaceopt.studies import perturbed_report as R
 
@@ -531,6 +531,30 @@ def test_switching_is_read_and_refuses_the_options_of_the_smoothed_route():
     bad["e8"]["count_start"] = "previous"
     with pytest.raises(ConfigError, match=r"perturbed\.e8\.count_start"):
         P.case_switching(bad, "e8")
+
+
+def test_sensitivity_rtol_needs_the_exact_map_and_reaches_the_shooting_problems():
+    """Case option sensitivity_rtol (a number or {model: number}): only with switching: exact
+    (the smoothed map has one tolerance for f and Φ); it reaches the Transfer and every Shooting
+    of it; bad values are one-line errors naming the key."""
+    assert P.transfer_from_config(PC, "e9", "j2").sensitivity_rtol is None
+    pc = copy.deepcopy(PC)
+    pc["cases"]["e9"]["sensitivity_rtol"] = 1e-9
+    with pytest.raises(ConfigError, match=r"perturbed\.cases\.e9\.sensitivity_rtol.*switching: exact"):
+        P.transfer_from_config(pc, "e9", "j2")
+    pc["cases"]["e9"]["switching"] = "exact"
+    tr = P.transfer_from_config(pc, "e9", "j2")
+    assert tr.sensitivity_rtol == 1e-9 and chain.shooting_for("ot", "eps", tr).sensitivity_rtol == 1e-9
+    pc["cases"]["e9"]["sensitivity_rtol"] = {"g44": 1e-8}
+    assert P.transfer_from_config(pc, "e9", "g44").sensitivity_rtol == 1e-8
+    assert P.transfer_from_config(pc, "e9", "j2").sensitivity_rtol is None
+    for value, match in ((-1e-9, r"perturbed\.cases\.e9\.sensitivity_rtol\.g44"),
+                         ({"moon": 1e-9}, r"perturbed\.cases\.e9\.sensitivity_rtol\.moon")):
+        pc["cases"]["e9"]["sensitivity_rtol"] = value if isinstance(value, dict) else {"g44": value}
+        with pytest.raises(ConfigError, match=match):
+            P.transfer_from_config(pc, "e9", "g44")
+    with pytest.raises(ConfigError, match="sensitivity_rtol"):
+        dataclasses.replace(tr, sensitivity_rtol=0.1)
 
 
 def test_corrector_is_read_and_reaches_the_chain_only():

@@ -31,7 +31,10 @@ force-model blend 'model', the perturbation switch 'pert', a parameter path 'par
 
    the jump of the sensitivities across the discontinuity of the field (the saltation matrix).
 3. The residual and Jacobian are assembled as :func:`.shooting._shoot` does, with δ fixed at its
-   K = 0 value in the transversality condition and δ of the last arc in the K_f column.
+   K = 0 value in the transversality condition and δ of the last arc in the K_f column. f is
+   pass 1's y(K_f), the same as :func:`residual`'s; pass 2 may integrate at a looser tolerance
+   (``Shooting.sensitivity_rtol``), since Newton needs ∂f/∂z only to ‖J⁻¹ δJ‖ ≪ 1: at the E8
+   500 full-model blend ‖J⁻¹ δJ‖ is 0.23 at 1e-9 against 1e-11, and the Jacobian 1.41× cheaper.
 
 Both passes run inside one compiled ``lax.while_loop`` each. Written by hand because diffrax
 integrates one smooth field per solve: the arc loop, the bracketing and the saltation are the
@@ -342,12 +345,16 @@ def _assemble(sh, z, tau, prm, yf, Phif, d_last, d0):
 
 
 @partial(jax.jit, static_argnums=0)
-def shoot(sh, z, tau, prm, rtol, atol):
-    """f(z, τ), ∂f/∂z, ∂f/∂τ, steps of both passes, success (:func:`.shooting.shoot`'s tuple)."""
+def shoot(sh, z, tau, prm, rtol, atol, sens_rtol, sens_atol):
+    """f(z, τ), ∂f/∂z, ∂f/∂τ, steps of both passes, success (:func:`.shooting.shoot`'s tuple).
+
+    f and the K_f column come from pass 1 at (rtol, atol), as in :func:`residual`; pass 2
+    integrates the sensitivities at (sens_rtol, sens_atol) (``Shooting.sensitivity_rtol``)."""
     y0, Phi0, p1 = _start(sh, z, tau, prm, rtol, atol)
-    yf, Phif, d_last, steps2, ok2 = propagate_with_sensitivities(
-        sh.model, y0, Phi0, z[sh.kf_index], tau, prm, rtol, atol, sh.max_steps, p1["d0"], p1["Ks"], p1["n_switches"])
-    return (*_assemble(sh, z, tau, prm, yf, Phif, d_last, p1["d0"]), p1["steps"] + steps2,
+    _, Phif, d_last, steps2, ok2 = propagate_with_sensitivities(
+        sh.model, y0, Phi0, z[sh.kf_index], tau, prm, sens_rtol, sens_atol, sh.max_steps, p1["d0"], p1["Ks"],
+        p1["n_switches"])
+    return (*_assemble(sh, z, tau, prm, p1["yf"], Phif, d_last, p1["d0"]), p1["steps"] + steps2,
             ok2 & (p1["status"] == DONE))
 
 
@@ -356,13 +363,13 @@ _assemble_jit = jax.jit(_assemble, static_argnums=0)
 _pass2_block = jax.jit(propagate_with_sensitivities, static_argnums=(0, 8))
 
 
-def shoot_threaded(sh, z, tau, prm, rtol, atol, k):
+def shoot_threaded(sh, z, tau, prm, rtol, atol, sens_rtol, sens_atol, k):
     """:func:`shoot` with pass 2's columns split over ``k`` threads (.column_threads)."""
     y0, Phi0, p1 = _start_jit(sh, z, tau, prm, rtol, atol)
-    yf, Phif, d_last, steps2, ok2 = column_threads.propagate(
-        lambda Phi, tangent: _pass2_block(sh.model, y0, Phi, z[sh.kf_index], tau, prm, rtol, atol, sh.max_steps,
-                                          p1["d0"], p1["Ks"], p1["n_switches"], tangent), Phi0, k)
-    return (*_assemble_jit(sh, z, tau, prm, yf, Phif, d_last, p1["d0"]), p1["steps"] + steps2,
+    _, Phif, d_last, steps2, ok2 = column_threads.propagate(
+        lambda Phi, tangent: _pass2_block(sh.model, y0, Phi, z[sh.kf_index], tau, prm, sens_rtol, sens_atol,
+                                          sh.max_steps, p1["d0"], p1["Ks"], p1["n_switches"], tangent), Phi0, k)
+    return (*_assemble_jit(sh, z, tau, prm, p1["yf"], Phif, d_last, p1["d0"]), p1["steps"] + steps2,
             ok2 & (p1["status"] == DONE))
 
 

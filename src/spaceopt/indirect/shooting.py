@@ -50,6 +50,10 @@ class Shooting:
     path_arcs: int = dc_field(default=1, compare=False)    # > 1: paths followed by multiple
     # shooting over that many arcs (chain._run, multiple_shooting); end points by single shooting
     switching: str = "smoothed"   # 'exact': δ = 1[S > 0] with switches located (.exact_switching)
+    # the exact map's sensitivities (pass 2) at max(rtol, sensitivity_rtol): Newton needs the
+    # Jacobian to ‖J⁻¹ δJ‖ ≪ 1, not to the residual's accuracy; None = the residual's tolerance.
+    # The smoothed map integrates f and Φ in one solve and ignores it (.exact_switching.shoot)
+    sensitivity_rtol: float | None = dc_field(default=None, compare=False)
 
     def __post_init__(self):
         if self.switching not in SWITCHINGS:
@@ -125,10 +129,19 @@ def shoot(sh: Shooting, z, tau, prm, rtol=None, atol=None):
     except under a JAX transformation (``jax.jit(jax.vmap(shoot))``: one computation).
     """
     rtol, atol = sh.rtol if rtol is None else rtol, sh.atol if atol is None else atol
+    tols = (rtol, atol, *sensitivity_tolerances(sh, rtol, atol)) if sh.switching == "exact" else (rtol, atol)
     k = column_threads.threads()
     if k > 1 and not isinstance(z, jax.core.Tracer):
-        return _map(sh, "shoot_threaded")(sh, z, tau, prm, rtol, atol, k)
-    return _map(sh, "shoot")(sh, z, tau, prm, rtol, atol)
+        return _map(sh, "shoot_threaded")(sh, z, tau, prm, *tols, k)
+    return _map(sh, "shoot")(sh, z, tau, prm, *tols)
+
+
+def sensitivity_tolerances(sh: Shooting, rtol, atol) -> tuple:
+    """(rtol, atol) of the exact map's sensitivities at the residual's (rtol, atol):
+    ``sh.sensitivity_rtol`` where it is looser, atol scaled with it."""
+    if sh.sensitivity_rtol is None or sh.sensitivity_rtol <= rtol:
+        return rtol, atol
+    return sh.sensitivity_rtol, atol * sh.sensitivity_rtol / rtol
 
 
 def _map(sh: Shooting, name: str):

@@ -72,11 +72,13 @@ class Transfer:
     max_steps: int = MAX_STEPS             # integration-step cap of every propagation (step_cap)
     path_rtol: float = PATH_RTOL           # integration rtol along homotopy paths (Shooting.path_rtol)
     path_arcs: int = 1                     # shooting arcs along homotopy paths (Shooting.path_arcs)
+    sensitivity_rtol: float | None = None  # the exact map's Jacobian rtol (Shooting.sensitivity_rtol)
 
     def integration(self) -> dict:
         """The integration settings every Shooting of this transfer takes (step cap, path rtol,
-        path arcs)."""
-        return {"max_steps": self.max_steps, "path_rtol": self.path_rtol, "path_arcs": self.path_arcs}
+        path arcs, sensitivity rtol)."""
+        return {"max_steps": self.max_steps, "path_rtol": self.path_rtol, "path_arcs": self.path_arcs,
+                "sensitivity_rtol": self.sensitivity_rtol}
 
     def __post_init__(self):
         self.initial.check("initial")
@@ -86,6 +88,9 @@ class Transfer:
                 raise ConfigError(key, val, "must be a positive number")
         if not (isinstance(self.path_rtol, (int, float)) and 0 < self.path_rtol < 1e-3):
             raise ConfigError("path_rtol", self.path_rtol, "must be a relative tolerance in (0, 1e-3)")
+        if self.sensitivity_rtol is not None and not (
+                isinstance(self.sensitivity_rtol, (int, float)) and 0 < self.sensitivity_rtol < 1e-3):
+            raise ConfigError("sensitivity_rtol", self.sensitivity_rtol, "must be a relative tolerance in (0, 1e-3)")
         if not (isinstance(self.path_arcs, int) and not isinstance(self.path_arcs, bool) and self.path_arcs >= 1):
             raise ConfigError("path_arcs", self.path_arcs, "must be a whole number of shooting arcs >= 1")
         if not math.isnan(self.thrust) and not (math.isfinite(self.thrust) and self.thrust > 0):

@@ -57,7 +57,7 @@ CASE_KEYS = ("initial", "final", "L0_deg", "n_rev", "m0_kg", "isp_s", "thrust_N"
              "ephemeris", "models")
 OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref", "route", "model_start", "fallback",
                       "perturb_at_eps", "model_step_at_eps", "path_rtol", "path_arcs", "warm_step_growth",
-                      "model_step", "tof_maximum", "switching", "corrector")
+                      "model_step", "tof_maximum", "switching", "corrector", "sensitivity_rtol")
 MODEL_STEP_PATHS = ("tau", "arclength")
 
 
@@ -137,7 +137,8 @@ def transfer_from_config(pc: dict, case: str, model: str, *, ephemeris: str | No
         ephemeris=ephemeris if needs_eph else None,
         max_steps=step_cap(revs, num["max_steps_per_rev"], num["min_max_steps"]) if "max_steps_per_rev" in num
         else MAX_STEPS,
-        path_rtol=case_path_rtol(cc, model, path), path_arcs=case_path_arcs(cc, model, path))
+        path_rtol=case_path_rtol(cc, model, path), path_arcs=case_path_arcs(cc, model, path),
+        sensitivity_rtol=case_sensitivity_rtol(pc, case, model))
 
 
 def _per_model(cc: dict, key: str, model: str, path: str, default, read):
@@ -162,6 +163,24 @@ def case_path_rtol(cc: dict, model: str, path: str) -> float:
     2.5 at the converged 200-revolution extremal; 0.27 at 1e-10, 0.008 at 1e-11, measured by
     docs/experiments/path_jacobian_accuracy.py)."""
     return _per_model(cc, "path_rtol", model, path, PATH_RTOL,
+                      lambda cfg, key, where: _number(cfg, key, where, positive=True))
+
+
+def case_sensitivity_rtol(pc: dict, case: str, model: str) -> float | None:
+    """Case option ``sensitivity_rtol`` (a number or {model: number}, like ``path_rtol``): the
+    integration rtol of the exact map's sensitivities where it is looser than the residual's
+    (``Shooting.sensitivity_rtol``; None, the default: the residual's). Newton and the path
+    correctors need ‖J⁻¹ δJ‖ ≪ 1, not the residual's accuracy: on the exact map at E8 500 rev,
+    1e-9 against 1e-11 gives ‖J⁻¹ δJ‖ 1.8e-2 at the full model's extremal and 0.23 at τ 0.5 of
+    the 4×4 → full blend, whose Jacobian is 1.41× cheaper (docs/perturbed-e6-e7-e8.md,
+    "forty-first session"). Only with ``switching: exact``: the
+    smoothed map integrates f and Φ in one solve, and at ε_f its Jacobian needs the tight path
+    tolerance (:func:`case_path_rtol`)."""
+    cc, path = pc["cases"][case], f"perturbed.cases.{case}"
+    if cc.get("sensitivity_rtol") is not None and case_switching(pc, case) != "exact":
+        raise ConfigError(f"{path}.sensitivity_rtol", cc["sensitivity_rtol"],
+                          "a separate Jacobian tolerance needs the exact bang-bang map (switching: exact)")
+    return _per_model(cc, "sensitivity_rtol", model, path, None,
                       lambda cfg, key, where: _number(cfg, key, where, positive=True))
 
 
