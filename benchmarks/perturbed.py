@@ -504,7 +504,7 @@ def corrector_comparison(n_rev: float) -> dict:
     return out
 
 
-def _blend_jacobian_at(n_rev: float, sensitivity_rtol: float | None = None):
+def _blend_jacobian_at(n_rev: float):
     """The E8 4×4 → full model blend at ``n_rev`` revolutions from the DAG's 4×4 artifact, on
     its map: (layout, z, data, path tolerances) of its Jacobian at τ = 0.5."""
     import dataclasses
@@ -517,8 +517,7 @@ def _blend_jacobian_at(n_rev: float, sensitivity_rtol: float | None = None):
     start = P.load(ROOT / "results" / "perturbed" / "e8" / f"g44_n{n_rev:g}.json")
     tr = dataclasses.replace(P.transfer_from_config(
         pc, "e8", "g44_moon_sun", n_rev=n_rev,
-        ephemeris=P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"])), path_arcs=1,
-        sensitivity_rtol=sensitivity_rtol)
+        ephemeris=P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"])), path_arcs=1)
     sh, prm, _ = chain.model_blend(P.warm_start_integration(start, tr), tr.params(thrust=start.thrust_N))
     return sh, jnp.asarray(start.z), prm, chain._path_tolerances(sh)
 

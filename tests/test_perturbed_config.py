@@ -1327,7 +1327,8 @@ def test_a_model_carries_over_another_models_bound_only_where_both_are_checked_f
 def test_the_exact_e8_profile_validates_and_selects_the_exact_route():
     """config/e8_exact.yaml over the study config (as --configfile merges it): schema-valid, E8 on
     the exact map, its model steps single shooting, the full model's in arclength with
-    truncated-SVD steps (the smoothed route's model_step), no smoothing ε for the warm starts."""
+    truncated-SVD steps (the smoothed route's model_step), no smoothing ε for the warm starts,
+    the sensitivities at a looser tolerance than the path's."""
     import jsonschema
     over = yaml.safe_load((ROOT / "config/e8_exact.yaml").read_text())["perturbed"]["cases"]["e8"]
     pc = copy.deepcopy(PC)
@@ -1342,3 +1343,5 @@ def test_the_exact_e8_profile_validates_and_selects_the_exact_route():
     settings = P.tof_maximum_settings(pc, "e8")           # the survey added to the study's end game
     assert settings["survey_days"] > 0 and settings["probe_days"] == PC["numerics"]["tof_maximum"]["probe_days"]
     assert ft.MaximumOptions(**settings).survey_days == settings["survey_days"]
+    tr = P.transfer_from_config(pc, "e8", "g44_moon_sun", n_rev=200)   # the Jacobians' own tolerance
+    assert tr.sensitivity_rtol == over["sensitivity_rtol"] > tr.path_rtol
