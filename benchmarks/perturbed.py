@@ -504,6 +504,17 @@ def corrector_comparison(n_rev: float) -> dict:
     return out
 
 
+def _side_by_side(seconds, a, b, rounds: int) -> tuple[dict, float]:
+    """``seconds(name)`` (one timed run) for the names a and b, ``rounds`` rounds with the order
+    alternating round by round; the wall times {a: [...], b: [...]} and the paired median ratio
+    a / b (the machine is shared and noisy: the per-round ratio is the robust number)."""
+    times = {a: [], b: []}
+    for i in range(rounds):
+        for name in ((a, b) if i % 2 == 0 else (b, a)):
+            times[name].append(seconds(name))
+    return times, statistics.median(ta / tb for ta, tb in zip(times[a], times[b]))
+
+
 def _blend_jacobian_at(n_rev: float):
     """The E8 4×4 → full model blend at ``n_rev`` revolutions from the DAG's 4×4 artifact, on
     its map: (layout, z, data, path tolerances) of its Jacobian at τ = 0.5."""
@@ -547,15 +558,10 @@ def sensitivity_comparison(n_rev: float, sensitivity_rtol: float, rounds: int) -
         return out, time.perf_counter() - t0
 
     tight, loose = run("path_rtol")[0], run("sensitivity_rtol")[0]
-    times = {name: [] for name in layouts}
-    for i in range(rounds):
-        for name in (tuple(layouts) if i % 2 == 0 else tuple(reversed(layouts))):
-            times[name].append(run(name)[1])
+    times, ratio = _side_by_side(lambda name: run(name)[1], "path_rtol", "sensitivity_rtol", rounds)
     J, J_loose = np.asarray(tight[1]), np.asarray(loose[1])
     return {"n_rev": n_rev, "map": sh.switching, "path_rtol": tol[0], "sensitivity_rtol": sensitivity_rtol,
-            "rounds": rounds, "wall_time_s": times,
-            "median_ratio_path_over_sensitivity": float(np.median(np.array(times["path_rtol"])
-                                                                  / np.array(times["sensitivity_rtol"]))),
+            "rounds": rounds, "wall_time_s": times, "median_ratio_path_over_sensitivity": ratio,
             "steps": {"path_rtol": int(tight[3]), "sensitivity_rtol": int(loose[3])},
             "max_abs_diff_f": float(np.abs(np.asarray(tight[0]) - np.asarray(loose[0])).max()),
             "newton_contraction": float(np.linalg.norm(np.linalg.solve(J_loose, J_loose - J), 2)),
@@ -570,7 +576,6 @@ def threads_comparison(n_rev: float, k: int, rounds: int) -> dict:
     paired median ratio, and the largest differences of f, ∂f/∂z, ∂f/∂τ and the steps."""
     import jax
     import jax.numpy as jnp
-    import numpy as np
     from spaceopt.indirect.column_threads import THREADS_ENV
     from spaceopt.indirect.shooting import shoot
 
@@ -585,15 +590,11 @@ def threads_comparison(n_rev: float, k: int, rounds: int) -> dict:
 
     try:
         (one, _), (split, _) = run(1), run(k)
-        times = {1: [], k: []}
-        for i in range(rounds):
-            for threads in ((1, k) if i % 2 == 0 else (k, 1)):
-                times[threads].append(run(threads)[1])
+        times, ratio = _side_by_side(lambda threads: run(threads)[1], 1, k, rounds)
     finally:
         os.environ.pop(THREADS_ENV) if before is None else os.environ.__setitem__(THREADS_ENV, before)
     return {"n_rev": n_rev, "threads": k, "map": sh.switching, "rtol": tol[0], "rounds": rounds,
-            "wall_time_s": {"1": times[1], str(k): times[k]},
-            "median_ratio_1_over_k": float(np.median(np.array(times[1]) / np.array(times[k]))),
+            "wall_time_s": {"1": times[1], str(k): times[k]}, "median_ratio_1_over_k": ratio,
             "max_abs_diff": {name: float(jnp.abs(a - b).max()) for name, a, b in zip(("f", "J", "f_tau"), one, split)},
             "steps": [int(one[3]), int(split[3])]}
 
