@@ -136,6 +136,30 @@ def test_perturbation_strength_homotopy_end_points():
                                    g_u + tau * (g_p - g_u), rtol=1e-12, atol=1e-15)
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_orbital_frame_of_the_perturbation_is_the_r_v_frame(seed):
+    """perturbation_tnr builds e_r, e_t, e_n and r from the equinoctial frame; spec 01-methods
+    §1.7 builds them from r, v (Appendix B.1): e_r = r/r, e_n = r×v/|r×v|, e_t = e_n×e_r. Both
+    give the same (a_t, a_r, a_n), also at high inclination (tan(i/2) up to 0.9)."""
+    from spaceopt.elements import mee_to_cartesian
+    from spaceopt.forces import build_model, perturbing_acceleration
+    rng = np.random.default_rng(100 + seed)
+    K, x, _ = random_point(seed)
+    x = x.at[hm.IX].set(rng.uniform(-0.9, 0.9)).at[hm.IY].set(rng.uniform(-0.9, 0.9))
+    prm = {"du": 7.0e6, "tu": 806.0,
+           "pert": build_model({"geopotential": {"degree": 4, "order": 4}}, "2021-05-09T12:00:00", None)}
+    g = hm.geometry(K, x)
+    r, v = mee_to_cartesian(jnp.stack([x[hm.P], x[hm.EX], x[hm.EY], x[hm.IX], x[hm.IY], g["L"]]), 1.0)
+    e_r = r / jnp.linalg.norm(r)
+    e_n = jnp.cross(r, v) / jnp.linalg.norm(jnp.cross(r, v))
+    e_t = jnp.cross(e_n, e_r)
+    t = prm["pert"].epoch + x[hm.TIME] * prm["tu"]
+    a = perturbing_acceleration(r * prm["du"], t, prm["pert"]) * prm["tu"] ** 2 / prm["du"]
+    expected = jnp.stack([a @ e_t, a @ e_r, a @ e_n])
+    np.testing.assert_allclose(hm.perturbation_tnr(K, x, prm), expected, rtol=1e-12,
+                               atol=1e-13 * float(jnp.linalg.norm(a)))
+
+
 def test_force_model_blend_is_linear_in_the_acceleration():
     """Model('ot', 'model'): the perturbation field of prm['pert_from'] at τ = 0, of prm['pert']
     at τ = 1, and (1 − τ) · from + τ · to between (H_p is linear in a_p)."""

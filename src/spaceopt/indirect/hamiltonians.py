@@ -152,27 +152,36 @@ def epsilon_schedule(tau, eps_final):
 def perturbation_tnr(K, x, prm, blend=None):
     """Perturbing acceleration (a_pt, a_pr, a_pn) in the orbital frame, nondimensional.
 
-    Spec 01-methods §1.7 steps 2–4: r, v from the MEE (Appendix B.1), e_r = r/r,
-    e_n = r×v/|r×v|, e_t = e_n×e_r; a_p from :func:`spaceopt.forces.perturbing_acceleration`
-    at r·DU and t_TDB = epoch [+ epoch_offset_s] + t·TU, scaled by TU²/DU. ``blend`` = τ: the
-    force-model blend a_p = τ a_p[prm['pert']] + (1 − τ) a_p[prm['pert_from']], with the orbital
-    frame, position and time computed once for both models, and each term the two models share
-    (:func:`spaceopt.forces.blended_acceleration`).
+    Spec 01-methods §1.7 steps 2–4 take r, v from the MEE (Appendix B.1) and build e_r = r/r,
+    e_n = r×v/|r×v|, e_t = e_n×e_r. The same vectors come without v, norms or cross products
+    from the equinoctial frame of the MEE (the rows of Appendix B.1's position formula), with
+    s² = 1 + i_x² + i_y²:
+
+        f̂ = (1 + i_x² − i_y², 2 i_x i_y, −2 i_y)/s²,   ĝ = (2 i_x i_y, 1 − i_x² + i_y², 2 i_x)/s²,
+        e_r = cos L f̂ + sin L ĝ,   e_t = cos L ĝ − sin L f̂,   e_n = f̂×ĝ = (2 i_y, −2 i_x, 1 − i_x² − i_y²)/s²,
+        r = (p/q) e_r.
+
+    Fewer operations mean fewer XLA kernels under the solver's nested derivatives
+    (docs/perturbed-e6-e7-e8.md, "nineteenth session" and "forty-second session"); a test checks
+    the frame against the r, v route. a_p comes from
+    :func:`spaceopt.forces.perturbing_acceleration` at r·DU and t_TDB = epoch [+ epoch_offset_s]
+    + t·TU, scaled by TU²/DU. ``blend`` = τ: the force-model blend a_p = τ a_p[prm['pert']] +
+    (1 − τ) a_p[prm['pert_from']], with the orbital frame, position and time computed once for
+    both models, and each term the two models share (:func:`spaceopt.forces.blended_acceleration`).
     """
-    from ..elements import mee_to_cartesian
     from ..forces import blended_acceleration, perturbing_acceleration
 
     g = geometry(K, x)
-    mee = jnp.stack([x[P], x[EX], x[EY], x[IX], x[IY], g["L"]])
-    r, v = mee_to_cartesian(mee, 1.0)
-    e_r = r / jnp.linalg.norm(r)
-    h = jnp.cross(r, v)
-    e_n = h / jnp.linalg.norm(h)
-    e_t = jnp.cross(e_n, e_r)
+    ix, iy, s2, cL, sL = x[IX], x[IY], g["s2"], g["cL"], g["sL"]
+    f_hat = jnp.stack([1.0 + ix * ix - iy * iy, 2.0 * ix * iy, -2.0 * iy]) / s2
+    g_hat = jnp.stack([2.0 * ix * iy, 1.0 - ix * ix + iy * iy, 2.0 * ix]) / s2
+    e_r = cL * f_hat + sL * g_hat
+    e_t = cL * g_hat - sL * f_hat
+    e_n = jnp.stack([2.0 * iy, -2.0 * ix, 1.0 - ix * ix - iy * iy]) / s2
     model = prm["pert"]
     # prm['epoch_offset_s'] (optional): departure epoch shifted from the model's (E6 date homotopy)
     t = model.epoch + prm.get("epoch_offset_s", 0.0) + x[TIME] * prm["tu"]
-    r_m = r * prm["du"]
+    r_m = (x[P] / g["q"] * prm["du"]) * e_r
     a = (perturbing_acceleration(r_m, t, model) if blend is None
          else blended_acceleration(r_m, t, model, prm["pert_from"], blend))
     a = a * prm["tu"] ** 2 / prm["du"]
