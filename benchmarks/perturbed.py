@@ -116,19 +116,19 @@ def measured(results: Path) -> dict:
 def e8_route_times(e8: dict) -> dict:
     """Wall time of the DAG's route to each perturbed E8 solve, from the artifacts: the
     unperturbed count n (``perturbed.e8.count_start: chain``, from the zero guess) or the
-    unperturbed counts up to n (``previous``: each continues from the one before), then every
-    later model at n (each from the previous model at n); the Jacobians of the solvers and of the
-    free-time end games. Only routes whose solves all exist."""
-    from spaceopt.studies.perturbed import e8_count_start
+    unperturbed counts up to n (``previous``: each continues from the one before), then the
+    models at n that lead to the solve (``perturbed.case_route``: each from its start model); the
+    Jacobians of the solvers and of the free-time end games. Only routes whose solves all exist."""
+    from spaceopt.studies.perturbed import case_route, e8_count_start
     pc = _perturbed_config()
     models = pc["cases"]["e8"]["models"]
     ns = sorted(float(n) for n in pc["e8"]["n_rev"])
     chained = e8_count_start(pc) == "chain"
     out = {}
     for n in ns:
-        keys = [f"{models[0]}_n{m:g}" for m in ns if (m == n if chained else m <= n)]
+        first = [f"{models[0]}_n{m:g}" for m in ns if (m == n if chained else m <= n)]
         for model in models[1:]:
-            keys.append(f"{model}_n{n:g}")
+            keys = first + [f"{m}_n{n:g}" for m in case_route(pc, "e8", model)[1:]]
             if all(k in e8 and e8[k]["wall_time_s"] for k in keys):
                 out[f"{model}_n{n:g}"] = {"wall_time_s": sum(e8[k]["wall_time_s"] for k in keys),
                                           "jacobian_evaluations": sum((e8[k]["jacobian_evaluations"] or 0)
@@ -138,9 +138,24 @@ def e8_route_times(e8: dict) -> dict:
     return out
 
 
+CONFIGFILES: list[str] = []     # --configfile: profiles over the study config, as ./dev reproduce merges them
+
+
+def _merged(base: dict, over: dict) -> dict:
+    """``over`` written over ``base`` key by key, nested mappings merged (Snakemake's --configfile)."""
+    out = dict(base)
+    for k, v in over.items():
+        out[k] = _merged(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
+    return out
+
+
 def _perturbed_config() -> dict:
+    """The perturbed section of the study config with the ``--configfile`` profiles over it."""
     import yaml
-    return yaml.safe_load((ROOT / "config/studies/perturbed.yaml").read_text())["perturbed"]
+    pc = yaml.safe_load((ROOT / "config/studies/perturbed.yaml").read_text())["perturbed"]
+    for path in CONFIGFILES:
+        pc = _merged(pc, (yaml.safe_load(Path(path).read_text()) or {}).get("perturbed", {}))
+    return pc
 
 
 # ------------------------------------------------------------------ propagation (worker side)
@@ -191,7 +206,8 @@ class _Worker:
         env.pop("XLA_FLAGS", None)
         if CALLER_XLA_FLAGS is not None:
             env["XLA_FLAGS"] = CALLER_XLA_FLAGS
-        self.p = subprocess.Popen([sys.executable, __file__, "--worker", "--revs", str(revs)],
+        self.p = subprocess.Popen([sys.executable, __file__, "--worker", "--revs", str(revs),
+                                   *(["--configfile", *CONFIGFILES] if CONFIGFILES else [])],
                                   stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env)
         self.first = {}
         for _ in PROPAGATION_MODELS:
@@ -380,14 +396,15 @@ def e8_chain(n_rev: float, model: str, start=None) -> tuple[dict, object]:
 def _e8_at_eps_blend(pc: dict, model: str, n_rev: float, sensitivity_rtol: float | None = None):
     """The E8 transfer of ``model`` at ``n_rev`` whose smoothing stops at ε₁ = eps_blend, single
     shooting (the start of the exact route and of the corrector comparison), with the exact map's
-    ``sensitivity_rtol`` (None: the residual's tolerance)."""
+    ``sensitivity_rtol`` (None: the case's, where the config sets one, else the residual's)."""
     import dataclasses
 
     from spaceopt.studies import perturbed as P
 
     eph = P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"])
     tr = P.transfer_from_config(pc, "e8", model, ephemeris=eph, n_rev=n_rev)
-    return dataclasses.replace(tr, eps_final=tr.eps_blend, path_arcs=1, sensitivity_rtol=sensitivity_rtol)
+    return dataclasses.replace(tr, eps_final=tr.eps_blend, path_arcs=1,
+                               sensitivity_rtol=tr.sensitivity_rtol if sensitivity_rtol is None else sensitivity_rtol)
 
 
 def _propellant_and_time(sol) -> dict:
@@ -404,14 +421,15 @@ def _propellant_and_time(sol) -> dict:
 
 def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | None = None,
                    sensitivity_rtol: float | None = None) -> dict:
-    """The E8 route to every model of the case at ``n_rev`` on the exact bang-bang map
+    """The E8 route to the case's last model at ``n_rev`` on the exact bang-bang map
     (:mod:`spaceopt.indirect.exact_switching`), each stage timed: the unperturbed chain from the
     zero guess to ε₁ = eps_blend only (no descent in ε), the exact unperturbed extremal by Newton
     (``chain.to_exact``); the first perturbed model switched on by τ on the exact map
-    (``perturbed.perturb_from_unperturbed``); each later force model by the model blend on the exact map
-    (``chain.continue_in_model``, single shooting); the free-time end game of the last model
-    on the exact map (the case's settings; its lift across branches needs a smoothing ε and is
-    off). Per stage: wall time, Jacobians, m_p, Δt; the route's total; the DAG's artifacts of the
+    (``perturbed.perturb_from_unperturbed``); each later force model of the route
+    (``perturbed.case_route``: each from its start model, the case option ``model_from``) by the
+    model blend on the exact map (``chain.continue_in_model``, single shooting); the free-time
+    end game of the last model on the exact map (the case's settings, its survey where the
+    config has one; its lift across branches needs a smoothing ε and is off). Per stage: wall time, Jacobians, m_p, Δt; the route's total; the DAG's artifacts of the
     same solves where they exist (``results/perturbed/e8``) for comparison. ``corrector``: the
     continuation corrector of the chain from the zero guess ('newton' | 'chord',
     ``ContinuationOptions``); the warm starts keep Newton's, as the case option does
@@ -419,14 +437,13 @@ def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | No
     model (the full model's: arclength, truncated-SVD steps), as ``config/e8_exact.yaml`` does.
     ``last_model``: the route stops after that model (no end game unless it is the case's last).
     ``sensitivity_rtol``: the exact map's Jacobians at that looser rtol (``Shooting.sensitivity_rtol``,
-    the case option of ``config/e8_exact.yaml``); None: at the residual's."""
+    the case option of ``config/e8_exact.yaml``); None: the case's (``--configfile``)."""
     from spaceopt.indirect import chain
     from spaceopt.indirect.free_time import MaximumOptions, maximise_final_mass
     from spaceopt.studies import perturbed as P
 
     pc = _perturbed_config()
-    models = pc["cases"]["e8"]["models"]
-    models = models[:models.index(last_model) + 1] if last_model else models
+    models = P.case_route(pc, "e8", last_model or pc["cases"]["e8"]["models"][-1])
     label = f"bench/e8-exact/n{n_rev:g}"
     options = chain.ContinuationOptions(corrector=corrector)
 
@@ -440,7 +457,8 @@ def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | No
         stages[name] = {"wall_time_s": time.perf_counter() - t0, "jacobian_evaluations": jacobians, **m_p_and_tof}
         print(f"[{label}] {name}: {stages[name]}", file=sys.stderr, flush=True)
 
-    out = {"n_rev": n_rev, "corrector": corrector, "sensitivity_rtol": sensitivity_rtol, "stages": stages}
+    out = {"n_rev": n_rev, "corrector": corrector, "models": models, "stages": stages,
+           "sensitivity_rtol": transfer(models[-1]).sensitivity_rtol}
     try:
         t0 = time.perf_counter()
         lp, smooth = P.solve_for(transfer(models[0]), f"{label}/{models[0]}",
@@ -449,9 +467,9 @@ def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | No
         t0 = time.perf_counter()
         sol = chain.to_exact(smooth, label=f"{label}/{models[0]} exact")
         record(f"{models[0]} exact", sol, t0, _jacobians(sol.stats))
-        for i, model in enumerate(models[1:]):
+        for model in models[1:]:
             tr, t0 = transfer(model), time.perf_counter()
-            if i == 0:
+            if not sol.transfer.perturbed:
                 sol = P.perturb_from_unperturbed(sol, tr, f"{label}/{model} on", path="tau")
             else:
                 kw = P.warm_start_kwargs(pc, "e8", model, n_rev=n_rev)
@@ -465,7 +483,8 @@ def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | No
             t0 = time.perf_counter()
             best, rec = maximise_final_mass(sol, MaximumOptions(label=f"{label} end game", **settings))
             record(f"{models[-1]} end game", best, t0, rec.get("jacobian_evaluations"))
-            out.update(end_game_certified=rec.get("certified"), end_game_status=rec.get("status"))
+            out.update(end_game_certified=rec.get("certified"), end_game_status=rec.get("status"),
+                       end_game_survey=rec.get("survey"))
     except Exception as exc:                                   # noqa: BLE001 — report, go on
         out.update(converged=False, error=f"{type(exc).__name__}: {exc}")
     out["route_wall_time_s"] = time.perf_counter() - t_route
@@ -681,8 +700,11 @@ def main(argv=None):
                     help="SPACEOPT_THREADS for this run: a Jacobian's columns split over this many threads")
     ap.add_argument("--threads-compare", type=float, nargs="*", default=[],
                     help="revolution counts of the E8 blend Jacobian, 1 thread against --threads (default 2)")
+    ap.add_argument("--configfile", nargs="+", default=[],
+                    help="config profiles over the study config for every part (e.g. config/e8_exact.yaml)")
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
+    CONFIGFILES[:] = a.configfile
     if a.worker:
         return _worker(a.revs)
     if a.threads is not None:
@@ -692,7 +714,7 @@ def main(argv=None):
     report = {k: v for k, v in report.items()
               if k in ("propagation", "e8", "field_profile", "e8_exact_route", "corrector", "threads", "sensitivity")}
     report["machine"] = {"cpu_count": os.cpu_count(), "load_avg_start": os.getloadavg(),
-                         "jacobian_threads": int(os.environ.get("SPACEOPT_THREADS", "1"))}
+                         "jacobian_threads": int(os.environ.get("SPACEOPT_THREADS", "1")), "configfiles": a.configfile}
     report["measured"] = measured(Path(a.results))
     report["target_s"] = TARGET_S
 
@@ -725,7 +747,7 @@ def main(argv=None):
             key = f"n{n:g}" + ("" if a.exact_route_corrector == "newton" else f"_{a.exact_route_corrector}") + \
                 (f"_to_{a.exact_route_to}" if a.exact_route_to else "") + \
                 (f"_threads{report['machine']['jacobian_threads']}" if report["machine"]["jacobian_threads"] > 1 else "") + \
-                (f"_sens{sens:g}" if sens is not None else "")
+                (f"_sens{sens:g}" if sens is not None else "") + "".join(f"_{Path(c).stem}" for c in a.configfile)
             report.setdefault("e8_exact_route", {})[key] = e8_exact_route(n, a.exact_route_corrector, a.exact_route_to,
                                                                           sens)
             write()

@@ -557,6 +557,34 @@ def test_sensitivity_rtol_needs_the_exact_map_and_reaches_the_shooting_problems(
         dataclasses.replace(tr, sensitivity_rtol=0.1)
 
 
+def test_model_from_names_the_start_of_a_warm_start_and_is_checked():
+    """Case option model_from ({model: an earlier model}): that model's solve starts from the one
+    named, the others from the previous model, the first from the zero guess; the route to a model
+    leaves out the models it skips; the report says where a step starts; bad values are one-line
+    errors naming the key."""
+    models = PC["cases"]["e8"]["models"]
+    assert [P.case_start_model(PC, "e8", m) for m in models] == [None, *models[:-1]]
+    assert P.case_route(PC, "e8", "g44_moon_sun") == models
+    assert all(s is None for s in P.case_start_models(PC)["e5"].values())     # model_start: chain
+    pc = copy.deepcopy(PC)
+    pc["cases"]["e8"]["model_from"] = {"g44_moon_sun": "j2"}
+    assert P.case_start_model(pc, "e8", "g44_moon_sun") == "j2" and P.case_start_model(pc, "e8", "g44") == "j2"
+    assert P.case_route(pc, "e8", "g44_moon_sun") == ["unperturbed", "j2", "g44_moon_sun"]
+    steps = {s["model"]: s for s in P.e8_model_steps(pc)}
+    assert steps["g44"]["from"] is None and steps["g44_moon_sun"]["from"] == "j2"
+    assert r"to 4$\times$4 + Moon + Sun from the $J_2$ extremal (" in R.e8_step_text(steps["g44_moon_sun"])
+    for value, match in (({"moon": "j2"}, r"perturbed\.cases\.e8\.model_from\.moon='j2'"),
+                         ({"g44_moon_sun": "g44_moon_sun"}, r"model_from\.g44_moon_sun.*before g44_moon_sun"),
+                         ({"j2": "g44"}, r"model_from\.j2='g44'"),
+                         ({"unperturbed": "j2"}, r"model_from\.unperturbed")):
+        pc["cases"]["e8"]["model_from"] = value
+        with pytest.raises(ConfigError, match=match):
+            P.case_start_models(pc)
+    pc["cases"]["e5"]["model_from"] = {"g44_moon_sun": "unperturbed"}      # E5 chains every model
+    with pytest.raises(ConfigError, match=r"perturbed\.cases\.e5\.model_from.*model_start: chain"):
+        P.case_start_model(pc, "e5", "g44_moon_sun")
+
+
 def test_corrector_is_read_and_reaches_the_chain_only():
     """Case option corrector (newton | chord): Newton's leaves the followers' defaults; chord goes
     into the options of the chain from the zero guess, not into the warm starts' (they keep
@@ -1328,7 +1356,7 @@ def test_the_exact_e8_profile_validates_and_selects_the_exact_route():
     """config/e8_exact.yaml over the study config (as --configfile merges it): schema-valid, E8 on
     the exact map, its model steps single shooting, the full model's in arclength with
     truncated-SVD steps (the smoothed route's model_step), no smoothing ε for the warm starts,
-    the sensitivities at a looser tolerance than the path's."""
+    the sensitivities at a looser tolerance than the path's, the full model started from J2."""
     import jsonschema
     over = yaml.safe_load((ROOT / "config/e8_exact.yaml").read_text())["perturbed"]["cases"]["e8"]
     pc = copy.deepcopy(PC)
@@ -1345,3 +1373,4 @@ def test_the_exact_e8_profile_validates_and_selects_the_exact_route():
     assert ft.MaximumOptions(**settings).survey_days == settings["survey_days"]
     tr = P.transfer_from_config(pc, "e8", "g44_moon_sun", n_rev=200)   # the Jacobians' own tolerance
     assert tr.sensitivity_rtol == over["sensitivity_rtol"] > tr.path_rtol
+    assert P.case_route(pc, "e8", "g44_moon_sun") == ["unperturbed", "j2", "g44_moon_sun"]   # 4x4 beside it

@@ -57,7 +57,7 @@ CASE_KEYS = ("initial", "final", "L0_deg", "n_rev", "m0_kg", "isp_s", "thrust_N"
              "ephemeris", "models")
 OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref", "route", "model_start", "fallback",
                       "perturb_at_eps", "model_step_at_eps", "path_rtol", "path_arcs", "warm_step_growth",
-                      "model_step", "tof_maximum", "switching", "corrector", "sensitivity_rtol")
+                      "model_step", "tof_maximum", "switching", "corrector", "sensitivity_rtol", "model_from")
 MODEL_STEP_PATHS = ("tau", "arclength")
 
 
@@ -182,6 +182,41 @@ def case_sensitivity_rtol(pc: dict, case: str, model: str) -> float | None:
                           "a separate Jacobian tolerance needs the exact bang-bang map (switching: exact)")
     return _per_model(cc, "sensitivity_rtol", model, path, None,
                       lambda cfg, key, where: _number(cfg, key, where, positive=True))
+
+
+def case_start_model(pc: dict, case: str, model: str) -> str | None:
+    """The model whose converged solution the solve of (``case``, ``model``) starts from, or None
+    where that solve is the chain from the zero guess: the case's first model, and every model
+    when the case says ``model_start: chain`` (E5, E7). Otherwise the model the case option
+    ``model_from`` ({model: an earlier model of the case}) names for it, else the one before it in
+    ``models``. ``config/e8_exact.yaml`` starts the full model from J2: on the exact map at 500
+    revolutions the J2 → full blend took 44 Jacobians and landed on the certified maximum, where
+    J2 → 4×4 → full took 16 + 64 and an end game of 33 (docs/perturbed-e6-e7-e8.md,
+    "forty-second session"); 4×4 is then a solve beside the route, not on it."""
+    cc, where = pc["cases"][case], f"perturbed.cases.{case}.model_from"
+    models, model_from = cc["models"], cc.get("model_from") or {}
+    for target, start in model_from.items():
+        if target not in models[1:]:
+            raise ConfigError(f"{where}.{target}", start, f"not a model of the case after its first ({', '.join(models[1:])})")
+        if start not in models[:models.index(target)]:
+            raise ConfigError(f"{where}.{target}", start, f"must name a model before {target} in the case's models")
+    if model_from and cc.get("model_start", "previous") == "chain":
+        raise ConfigError(where, model_from, "every model starts from the zero guess here (model_start: chain)")
+    if model == models[0] or cc.get("model_start", "previous") == "chain":
+        return None
+    return model_from.get(model, models[models.index(model) - 1])
+
+
+def case_route(pc: dict, case: str, model: str) -> list[str]:
+    """The models whose solves lead to (``case``, ``model``), in order, ``model`` last: its start
+    model's route (:func:`case_start_model`), from the solve that starts from the zero guess."""
+    start = case_start_model(pc, case, model)
+    return [model] if start is None else case_route(pc, case, start) + [model]
+
+
+def case_start_models(pc: dict) -> dict:
+    """{case: {model: start model or None}} of every case (checks each case's ``model_from``)."""
+    return {case: {m: case_start_model(pc, case, m) for m in cc["models"]} for case, cc in pc["cases"].items()}
 
 
 def case_path_arcs(cc: dict, model: str, path: str) -> int:
@@ -702,13 +737,15 @@ def e8_smoothing(pc: dict) -> dict:
 
 def e8_model_steps(pc: dict) -> list[dict]:
     """The force-model steps of the E8 route after J2 is switched on (the case's models from the
-    third on, each from the one before), for the report text: {model, path, arcs, step_rcond,
-    flat_step} from the case options ``model_step`` and ``path_arcs``."""
+    third on), for the report text: {model, from, path, arcs, step_rcond, flat_step} from the
+    case options ``model_from``, ``model_step`` and ``path_arcs``; ``from`` is the start model
+    (:func:`case_start_model`) where it is not the one before in the list, else None."""
     cc, where = pc["cases"]["e8"], "perturbed.cases.e8"
     steps = []
     for model in cc["models"][2:]:
-        step = case_model_step(cc, model, where)
-        steps.append({"model": model, "path": step.get("path", "tau"), "arcs": case_path_arcs(cc, model, where),
+        step, start = case_model_step(cc, model, where), case_start_model(pc, "e8", model)
+        steps.append({"model": model, "from": None if start == cc["models"][cc["models"].index(model) - 1] else start,
+                      "path": step.get("path", "tau"), "arcs": case_path_arcs(cc, model, where),
                       "step_rcond": step.get("step_rcond", 0.0), "flat_step": step.get("flat_step", 0.0)})
     return steps
 

@@ -442,7 +442,9 @@ def e8_step_text(step: dict) -> str:
         how.append(f"with Newton steps truncated below ${latex_number(step['step_rcond'])}\\,\\sigma_{{\\max}}$")
     if step["flat_step"] > 0:
         how.append("its end point found along the Jacobian's flattest direction where Newton's polish fails")
-    return f"to {MODEL_TEX.get(step['model'], step['model'])} ({', '.join(how)})"
+    start = step.get("from")
+    source = f" from the {MODEL_TEX.get(start, start)} extremal" if start else ""
+    return f"to {MODEL_TEX.get(step['model'], step['model'])}{source} ({', '.join(how)})"
 
 
 def e8_route_text(count_start: str, smoothing: dict, steps: list) -> str:
@@ -456,7 +458,8 @@ def e8_route_text(count_start: str, smoothing: dict, steps: list) -> str:
                 "the exact bang-bang problem ($\\varepsilon=0$, the switches located on the trajectory and the "
                 "Jacobian carried across them by saltation matrices), on which every later solve of the series "
                 "stays: $J_2$ is switched on by $\\tau$, then the force model changed by blending the perturbing "
-                "accelerations, by single shooting. ")
+                "accelerations, by single shooting" + (": " + "; then ".join(e8_step_text(s) for s in steps) if steps else "")
+                + ". ")
 
     def at(key):
         return r"$\varepsilon_f$" if smoothing[key] == smoothing["eps_final"] else f"$\\varepsilon={eps[key]}$"
