@@ -1374,3 +1374,5 @@ def test_the_exact_e8_profile_validates_and_selects_the_exact_route():
     tr = P.transfer_from_config(pc, "e8", "g44_moon_sun", n_rev=200)   # the Jacobians' own tolerance
     assert tr.sensitivity_rtol == over["sensitivity_rtol"] > tr.path_rtol
     assert P.case_route(pc, "e8", "g44_moon_sun") == ["unperturbed", "j2", "g44_moon_sun"]   # 4x4 beside it
+    text = R.e8_route_text("chain", P.e8_smoothing(pc), P.e8_model_steps(pc))
+    assert "exact bang-bang problem" in text and r"4$\times$4 + Moon + Sun from the $J_2$ extremal (in arclength" in text

@@ -452,14 +452,14 @@ def e8_route_text(count_start: str, smoothing: dict, steps: list) -> str:
     perturbed.e8.count_start; ``smoothing``: :func:`perturbed.e8_smoothing`, the ε values;
     ``steps``: :func:`perturbed.e8_model_steps`, the force-model steps after $J_2$)."""
     eps = {k: latex_number(v) for k, v in smoothing.items() if k != "switching"}
+    step_text = ": " + "; then ".join(e8_step_text(s) for s in steps) if steps else ""
     if smoothing.get("switching") == "exact":
         return ("Each revolution count of the GTO$\\to$GEO series is a chain of its own from the zero guess, "
                 f"which stops its smoothing at $\\varepsilon={eps['eps_blend']}$: Newton takes that extremal to "
                 "the exact bang-bang problem ($\\varepsilon=0$, the switches located on the trajectory and the "
                 "Jacobian carried across them by saltation matrices), on which every later solve of the series "
                 "stays: $J_2$ is switched on by $\\tau$, then the force model changed by blending the perturbing "
-                "accelerations, by single shooting" + (": " + "; then ".join(e8_step_text(s) for s in steps) if steps else "")
-                + ". ")
+                "accelerations, by single shooting" + step_text + ". ")
 
     def at(key):
         return r"$\varepsilon_f$" if smoothing[key] == smoothing["eps_final"] else f"$\\varepsilon={eps[key]}$"
@@ -473,7 +473,7 @@ def e8_route_text(count_start: str, smoothing: dict, steps: list) -> str:
     text = (counts + f"The perturbed counts start from the unperturbed one, $J_2$ switched on at "
             f"{at('perturb_at_eps')}, then the force model changed at {at('model_step_at_eps')} by "
             "blending the perturbing accelerations")
-    return text + (": " + "; then ".join(e8_step_text(s) for s in steps) if steps else "") + ". "
+    return text + step_text + ". "
 
 
 def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figures: list, *,
