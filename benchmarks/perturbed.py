@@ -424,17 +424,17 @@ def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | No
     """The E8 route to the case's last model at ``n_rev`` on the exact bang-bang map
     (:mod:`spaceopt.indirect.exact_switching`), each stage timed: the unperturbed chain from the
     zero guess to ε₁ = eps_blend only (no descent in ε), the exact unperturbed extremal by Newton
-    (``chain.to_exact``); the first perturbed model switched on by τ on the exact map
-    (``perturbed.perturb_from_unperturbed``); each later force model of the route
-    (``perturbed.case_route``: each from its start model, the case option ``model_from``) by the
-    model blend on the exact map (``chain.continue_in_model``, single shooting); the free-time
+    (``chain.to_exact``); then each force model of the route (``perturbed.case_route``: each from
+    its start model, the case option ``model_from``) by the DAG's warm start
+    (``perturbed.warm_start`` with the case's ``model_step``: the first perturbed model switched
+    on, each later one by the model blend, single shooting on the exact map); the free-time
     end game of the last model on the exact map (the case's settings, its survey where the
-    config has one; its lift across branches needs a smoothing ε and is off). Per stage: wall time, Jacobians, m_p, Δt; the route's total; the DAG's artifacts of the
-    same solves where they exist (``results/perturbed/e8``) for comparison. ``corrector``: the
-    continuation corrector of the chain from the zero guess ('newton' | 'chord',
-    ``ContinuationOptions``); the warm starts keep Newton's, as the case option does
-    (``perturbed.case_corrector``). Each model blend follows the case's ``model_step`` for its
-    model (the full model's: arclength, truncated-SVD steps), as ``config/e8_exact.yaml`` does.
+    config has one; its lift across branches needs a smoothing ε and is off). Per stage: wall
+    time, Jacobians, m_p, Δt; the route's total; the DAG's artifacts of the same solves where they
+    exist (``results/perturbed/e8``) for comparison. ``corrector``: the continuation corrector of
+    the chain from the zero guess ('newton' | 'chord', ``ContinuationOptions``); the warm starts
+    take the case's ``model_step`` (``config/e8_exact.yaml``: J2 in τ with the chord corrector,
+    the full model in arclength with truncated-SVD steps).
     ``last_model``: the route stops after that model (no end game unless it is the case's last).
     ``sensitivity_rtol``: the exact map's Jacobians at that looser rtol (``Shooting.sensitivity_rtol``,
     the case option of ``config/e8_exact.yaml``); None: the case's (``--configfile``)."""
@@ -469,13 +469,8 @@ def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | No
         record(f"{models[0]} exact", sol, t0, _jacobians(sol.stats))
         for model in models[1:]:
             tr, t0 = transfer(model), time.perf_counter()
-            if not sol.transfer.perturbed:
-                sol = P.perturb_from_unperturbed(sol, tr, f"{label}/{model} on", path="tau")
-            else:
-                kw = P.warm_start_kwargs(pc, "e8", model, n_rev=n_rev)
-                sol = chain.continue_in_model(P.warm_start_integration(sol, tr), tr.params(thrust=sol.thrust_N),
-                                              kw["options"], label=f"{label}/{model}", path=kw["model_path"])
-                sol.transfer = tr
+            sol = P.warm_start(sol, tr, f"{label}/{model}", **P.warm_start_kwargs(pc, "e8", model, n_rev=n_rev))
+            sol.transfer = tr
             record(f"{model} exact", sol, t0, _jacobians(sol.stats))
         out["converged"] = True
         if models[-1] == pc["cases"]["e8"]["models"][-1]:

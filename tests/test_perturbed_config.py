@@ -625,7 +625,11 @@ def test_model_step_settings_reach_the_warm_start_of_that_model_only():
     assert (opt.step_growth, opt.accepted_update, opt.step_rcond, opt.flat_step, opt.checkpoint_dir) == \
         (step["step_growth"], step["accepted_update"], step["step_rcond"], step["flat_step"], "ck")
     g44 = P.warm_start_kwargs(PC, "e8", "g44")
-    assert g44["model_path"] == "tau" and g44["options"] is None
+    assert g44["model_path"] is None and g44["options"] is None           # τ, then the fallbacks
+    pc = copy.deepcopy(PC)                                                  # J2 switched on in τ, chord steps
+    pc["cases"]["e8"]["model_step"]["j2"] = {"path": "tau", "corrector": "chord"}
+    j2 = P.warm_start_kwargs(pc, "e8", "j2")
+    assert j2["model_path"] == "tau" and j2["options"].corrector == "chord"
     pc = copy.deepcopy(PC)
     pc["cases"]["e8"]["warm_step_growth"] = "iterations"
     pc["cases"]["e8"]["model_step"]["g44_moon_sun"] = {"step_growth": "residual"}
@@ -633,6 +637,7 @@ def test_model_step_settings_reach_the_warm_start_of_that_model_only():
     assert P.warm_start_options(pc, "e8", model="g44").step_growth == "iterations"
     for key, val, settings in (("path", "spiral", {"path": "spiral"}), ("flat_step", -1, {"flat_step": -1}),
                                ("accepted_update", "never", {"accepted_update": "never"}),
+                               ("corrector", "secant", {"corrector": "secant"}),
                                ("h_init", 0.1, {"h_init": 0.1})):
         pc["cases"]["e8"]["model_step"] = {"g44_moon_sun": settings}
         with pytest.raises(ConfigError, match=rf"perturbed\.cases\.e8\.model_step\.g44_moon_sun\.{key}.*{val}"):
@@ -1358,9 +1363,12 @@ def test_the_exact_e8_profile_validates_and_selects_the_exact_route():
     truncated-SVD steps (the smoothed route's model_step), no smoothing ε for the warm starts,
     the sensitivities at a looser tolerance than the path's, the full model started from J2."""
     import jsonschema
-    over = yaml.safe_load((ROOT / "config/e8_exact.yaml").read_text())["perturbed"]["cases"]["e8"]
-    pc = copy.deepcopy(PC)
-    pc["cases"]["e8"].update(over)
+    def merged(base, top):         # Snakemake's --configfile: nested mappings merged key by key
+        return {**base, **{k: merged(base[k], v) if isinstance(v, dict) and isinstance(base.get(k), dict) else v
+                           for k, v in top.items()}}
+    profile = yaml.safe_load((ROOT / "config/e8_exact.yaml").read_text())["perturbed"]
+    over = profile["cases"]["e8"]
+    pc = merged(PC, profile)
     jsonschema.validate(pc, yaml.safe_load((ROOT / "config/schema/perturbed.schema.yaml").read_text()))
     assert P.case_switching(pc, "e8") == "exact"
     steps = {step["model"]: step for step in P.e8_model_steps(pc)}
@@ -1374,5 +1382,8 @@ def test_the_exact_e8_profile_validates_and_selects_the_exact_route():
     tr = P.transfer_from_config(pc, "e8", "g44_moon_sun", n_rev=200)   # the Jacobians' own tolerance
     assert tr.sensitivity_rtol == over["sensitivity_rtol"] > tr.path_rtol
     assert P.case_route(pc, "e8", "g44_moon_sun") == ["unperturbed", "j2", "g44_moon_sun"]   # 4x4 beside it
+    j2 = P.warm_start_kwargs(pc, "e8", "j2")                 # J2 switched on in tau, chord steps
+    assert j2["model_path"] == "tau" and j2["options"].corrector == "chord"
+    assert P.e8_runs(pc) == [(m, float(n)) for m in pc["e8"]["run_models"] for n in pc["e8"]["run_n_rev"]]  # 450 too
     text = R.e8_route_text("chain", P.e8_smoothing(pc), P.e8_model_steps(pc))
     assert "exact bang-bang problem" in text and r"4$\times$4 + Moon + Sun from the $J_2$ extremal (in arclength" in text

@@ -271,7 +271,7 @@ def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False, path: str = 
 
 
 def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smooth: float | None = None,
-               model_step_eps: float | None = None, model_path: str = "tau") -> Solution:
+               model_step_eps: float | None = None, model_path: str | None = None) -> Solution:
     """From a converged OT solution to the problem of ``tr_to`` (new date, model or n_rev).
 
     Perturbed → perturbed: a new force model at the same data is reached by the model blend
@@ -289,12 +289,15 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
     the arclength paths too; case option ``warm_step_growth``, :func:`warm_start_options`).
     ``model_path`` 'arclength' (case option ``model_step``, :func:`case_model_step`): a model
     step at ε_f is the model blend followed in arclength at once (E8 4×4 → 4×4 + Moon + Sun,
-    whose τ path crawls). The path used is in ``stats['warm_path']``.
+    whose τ path crawls); 'tau' or None: in τ, then the fallbacks. For the switch-on from an
+    unperturbed solution it is that path's (None: arclength, :func:`perturb_from_unperturbed`).
+    The path used is in ``stats['warm_path']``.
     """
     if sol.transfer.perturbed and not tr_to.perturbed:
         raise ConfigError("warm_start", tr_to.perturbations, "cannot warm-start an unperturbed problem from a perturbed one")
     if not sol.transfer.perturbed and tr_to.perturbed:
-        return perturb_from_unperturbed(sol, tr_to, label, eps_smooth=eps_smooth, options=options)
+        return perturb_from_unperturbed(sol, tr_to, label, path=model_path or "arclength", eps_smooth=eps_smooth,
+                                        options=options)
     sol = warm_start_integration(sol, tr_to)
     prm_to = tr_to.params(thrust=sol.thrust_N)
     if sol.transfer.epoch_utc != tr_to.epoch_utc:
@@ -413,15 +416,19 @@ def chain_options(pc: dict, case: str) -> ContinuationOptions | None:
     return None if corrector == "newton" else ContinuationOptions(corrector=corrector)
 
 
-STEP_SETTINGS = ("step_growth", "accepted_update", "step_rcond", "flat_step", "end_overshoot", "h_max")
+STEP_SETTINGS = ("step_growth", "accepted_update", "corrector", "step_rcond", "flat_step", "end_overshoot", "h_max")
 
 
 def case_model_step(cc: dict, model: str, path: str, n_rev: float | None = None) -> dict:
     """Case option ``model_step`` ({model: settings}): how the warm start into that model is
     followed, ``path`` ('tau', the default: τ, then its fallbacks; 'arclength': the model blend
-    in arclength at once) and the continuation options ``step_growth``, ``accepted_update``,
-    ``step_rcond``, ``flat_step``, ``end_overshoot`` and ``h_max`` (the largest step, in the
-    path's own measure; :class:`ContinuationOptions`, :class:`ArclengthOptions`).
+    in arclength at once; for the perturbations switched on from an unperturbed solution the
+    default is arclength) and the continuation options ``step_growth``, ``accepted_update``,
+    ``corrector``, ``step_rcond``, ``flat_step``, ``end_overshoot`` and ``h_max`` (the largest
+    step, in the path's own measure; :class:`ContinuationOptions`, :class:`ArclengthOptions`).
+    ``config/e8_exact.yaml`` switches J2 on in τ with the chord corrector: at 500 revolutions 14
+    Jacobians against 37 with Newton's in τ and 52 in arclength, the same extremal
+    (docs/perturbed-e6-e7-e8.md, "forty-second session").
     ``at_n_rev: {count: settings}`` overrides those continuation options for one revolution
     count ``n_rev`` (E8 450: the full model's arclength path with h_max 0.1, whose end point
     has the flat-direction root 0.008 away where h_max 0.3 leaves it 0.02 away, beyond the
@@ -431,7 +438,8 @@ def case_model_step(cc: dict, model: str, path: str, n_rev: float | None = None)
     def check(settings, where, allowed):
         if not isinstance(settings, dict):
             raise ConfigError(where, settings, "expected a mapping of model-step settings")
-        choices = {"path": MODEL_STEP_PATHS, "step_growth": GROWTH, "accepted_update": ACCEPTED_UPDATES}
+        choices = {"path": MODEL_STEP_PATHS, "step_growth": GROWTH, "accepted_update": ACCEPTED_UPDATES,
+                   "corrector": CORRECTORS}
         for k, v in settings.items():
             if k not in allowed:
                 raise ConfigError(f"{where}.{k}", v, f"unknown setting (expected {', '.join(allowed)})")
@@ -467,10 +475,11 @@ def warm_start_kwargs(pc: dict, case: str, model: str, checkpoint_dir: str = "",
     """The keyword arguments of :func:`warm_start` into ``model`` (at revolution count ``n_rev``,
     E8) from the case options: ``eps_smooth`` and ``model_step_eps`` (``perturb_at_eps``,
     ``model_step_at_eps``, each checked by :func:`perturb_at_eps`), ``options``
-    (:func:`warm_start_options`) and ``model_path`` (:func:`case_model_step`)."""
+    (:func:`warm_start_options`) and ``model_path`` (:func:`case_model_step`; None where it
+    names none)."""
     step = case_model_step(pc["cases"][case], model, f"perturbed.cases.{case}")
     return {"eps_smooth": perturb_at_eps(pc, case), "model_step_eps": perturb_at_eps(pc, case, "model_step_at_eps"),
-            "options": warm_start_options(pc, case, checkpoint_dir, model, n_rev), "model_path": step.get("path", "tau")}
+            "options": warm_start_options(pc, case, checkpoint_dir, model, n_rev), "model_path": step.get("path")}
 
 
 def warm_start_options(pc: dict, case: str, checkpoint_dir: str = "", model: str | None = None,
