@@ -419,7 +419,7 @@ def _propellant_and_time(sol) -> dict:
             "tof_days": float(yf[hm.TIME]) * u["time_s"] / 86400.0}
 
 
-def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | None = None,
+def e8_exact_route(n_rev: float, corrector: str | None = None, last_model: str | None = None,
                    sensitivity_rtol: float | None = None) -> dict:
     """The E8 route to the case's last model at ``n_rev`` on the exact bang-bang map
     (:mod:`spaceopt.indirect.exact_switching`), each stage timed: the unperturbed chain from the
@@ -432,7 +432,8 @@ def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | No
     config has one; its lift across branches needs a smoothing ε and is off). Per stage: wall
     time, Jacobians, m_p, Δt; the route's total; the DAG's artifacts of the same solves where they
     exist (``results/perturbed/e8``) for comparison. ``corrector``: the continuation corrector of
-    the chain from the zero guess ('newton' | 'chord', ``ContinuationOptions``); the warm starts
+    the chain from the zero guess ('newton' | 'chord', ``ContinuationOptions``; None: the case's,
+    ``perturbed.case_corrector``, as the DAG's chain takes it); the warm starts
     take the case's ``model_step`` (``config/e8_exact.yaml``: J2 in τ with the chord corrector,
     the full model in arclength with truncated-SVD steps).
     ``last_model``: the route stops after that model (no end game unless it is the case's last).
@@ -445,6 +446,7 @@ def e8_exact_route(n_rev: float, corrector: str = "newton", last_model: str | No
     pc = _perturbed_config()
     models = P.case_route(pc, "e8", last_model or pc["cases"]["e8"]["models"][-1])
     label = f"bench/e8-exact/n{n_rev:g}"
+    corrector = corrector or P.case_corrector(pc, "e8")
     options = chain.ContinuationOptions(corrector=corrector)
 
     def transfer(model):
@@ -679,8 +681,8 @@ def main(argv=None):
     ap.add_argument("--skip-e8", action="store_true")
     ap.add_argument("--exact-route", type=float, nargs="*", default=[],
                     help="revolution counts of the E8 route on the exact bang-bang map (e8_exact_route)")
-    ap.add_argument("--exact-route-corrector", choices=("newton", "chord"), default="newton",
-                    help="the continuation corrector of the exact route's paths")
+    ap.add_argument("--exact-route-corrector", choices=("newton", "chord"), default=None,
+                    help="the continuation corrector of the exact route's chain (default: the case's corrector)")
     ap.add_argument("--exact-route-to", default=None, help="the exact route's last model (default: the case's last)")
     ap.add_argument("--exact-route-sensitivity-rtol", type=float, nargs="*", default=[None],
                     help="the exact route's Jacobian rtol (Shooting.sensitivity_rtol); several: one route each")
@@ -739,12 +741,12 @@ def main(argv=None):
                 write()
     for n in a.exact_route:
         for sens in a.exact_route_sensitivity_rtol:
-            key = f"n{n:g}" + ("" if a.exact_route_corrector == "newton" else f"_{a.exact_route_corrector}") + \
+            rec = e8_exact_route(n, a.exact_route_corrector, a.exact_route_to, sens)
+            key = f"n{n:g}" + ("" if rec["corrector"] == "newton" else f"_{rec['corrector']}") + \
                 (f"_to_{a.exact_route_to}" if a.exact_route_to else "") + \
                 (f"_threads{report['machine']['jacobian_threads']}" if report["machine"]["jacobian_threads"] > 1 else "") + \
                 (f"_sens{sens:g}" if sens is not None else "") + "".join(f"_{Path(c).stem}" for c in a.configfile)
-            report.setdefault("e8_exact_route", {})[key] = e8_exact_route(n, a.exact_route_corrector, a.exact_route_to,
-                                                                          sens)
+            report.setdefault("e8_exact_route", {})[key] = rec
             write()
     for n in a.sensitivity_compare:
         report.setdefault("sensitivity", {})[f"n{n:g}"] = sensitivity_comparison(n, a.sensitivity_rtol, a.rounds)
