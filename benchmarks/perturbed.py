@@ -1,6 +1,6 @@
 """Benchmark of the perturbed §4.2 studies (issue #3: E8 500-rev chain ≤ 10 min on 2 cores; E6 scan).
 
-Eight parts, all written to ``results/benchmarks/perturbed.json`` (parts not rerun are kept):
+Nine parts, all written to ``results/benchmarks/perturbed.json`` (parts not rerun are kept):
 
 1. ``measured``: wall times read from the solve artifacts that exist (provenance wall_time_s of
    results/perturbed/**/<stage>.json): each E5/E7/E9 chain, every E6 date and the scan total,
@@ -42,12 +42,17 @@ Eight parts, all written to ``results/benchmarks/perturbed.json`` (parts not rer
    exact map at N revolutions with its sensitivities at the path rtol and at ``--sensitivity-rtol``
    (default 1e-9), side by side, with Newton's contraction ‖J⁻¹ δJ‖ (:func:`sensitivity_comparison`).
    ``--exact-route-sensitivity-rtol X [Y …]`` runs the exact route once per value (key ``_sens<X>``).
+9. ``chain_rtol`` (``--chain-rtol-compare N``): one full evaluation and one residual of the E8
+   LP → OT map at N revolutions at the case's path rtol for the unperturbed model and at
+   ``--chain-rtol`` (default 1e-8), side by side, with the steps and ‖J⁻¹ δJ‖
+   (:func:`chain_rtol_comparison`).
 
 Usage:
   python benchmarks/perturbed.py [--revs 5] [--rounds 10] [--baseline REV] [--e8-revs 200 ...]
                                  [--skip-propagation] [--skip-e8] [--profile] [--exact-route N ...]
                                  [--corrector-compare N ...] [--threads K] [--threads-compare N ...]
                                  [--exact-route-sensitivity-rtol X ...] [--sensitivity-compare N ...]
+                                 [--chain-rtol-compare N ...] [--chain-rtol X]
 """
 from __future__ import annotations
 
@@ -520,6 +525,48 @@ def corrector_comparison(n_rev: float) -> dict:
     return out
 
 
+def chain_rtol_comparison(n_rev: float, rtol: float, rounds: int) -> dict:
+    """The unperturbed chain's evaluations at the case's path rtol and at ``rtol``: the E8 chain
+    from the zero guess to ε₁ at ``n_rev`` revolutions (the case's corrector), then at its end
+    point a full evaluation (f, ∂f/∂z, ∂f/∂τ) and a residual alone (the chord corrector's), side
+    by side in ``rounds`` alternating rounds after compilation; the paired median ratios, the
+    integration steps, the largest difference of f and ‖J⁻¹ δJ‖₂ (Newton's contraction with the
+    looser Jacobian at best). The case's rtol is its ``path_rtol`` for the unperturbed model."""
+    import dataclasses
+
+    import jax
+    import jax.numpy as jnp
+    import numpy as np
+    from spaceopt.indirect import chain
+    from spaceopt.indirect.shooting import residual, shoot
+    from spaceopt.studies import perturbed as P
+
+    pc = _perturbed_config()
+    options = chain.ContinuationOptions(corrector=P.case_corrector(pc, "e8"))
+    _, ot = P.solve_for(_e8_at_eps_blend(pc, "unperturbed", n_rev), f"bench/chain-rtol/n{n_rev:g}",
+                        path=pc["numerics"].get("homotopy_path", "arclength"), options=options)
+    sh, z = ot.shooting, jnp.asarray(ot.z)
+    tols = {"case": chain._path_tolerances(sh),
+            "loose": chain._path_tolerances(dataclasses.replace(sh, path_rtol=rtol))}
+    out = {"n_rev": n_rev, "point": "the chain's OT extremal at eps_blend", "case_path_rtol": tols["case"][0],
+           "path_rtol": tols["loose"][0], "rounds": rounds}
+    evals = {}
+    for kind, fn in (("full", shoot), ("residual", residual)):
+        def run(name, fn=fn):
+            t0 = time.perf_counter()
+            res = jax.block_until_ready(fn(sh, z, 1.0, ot.prm, *tols[name]))
+            return res, time.perf_counter() - t0
+        evals[kind] = {name: run(name)[0] for name in tols}          # compiled and kept
+        times, ratio = _side_by_side(lambda name: run(name)[1], "case", "loose", rounds)
+        out[kind] = {"wall_time_s": times, "median_ratio_case_over_loose": ratio}
+    full = evals["full"]
+    J, J_loose = np.asarray(full["case"][1]), np.asarray(full["loose"][1])
+    out.update(steps={name: int(full[name][3]) for name in tols},
+               max_abs_diff_f=float(np.abs(np.asarray(full["case"][0]) - np.asarray(full["loose"][0])).max()),
+               newton_contraction=float(np.linalg.norm(np.linalg.solve(J_loose, J_loose - J), 2)))
+    return out
+
+
 def _side_by_side(seconds, a, b, rounds: int) -> tuple[dict, float]:
     """``seconds(name)`` (one timed run) for the names a and b, ``rounds`` rounds with the order
     alternating round by round; the wall times {a: [...], b: [...]} and the paired median ratio
@@ -692,6 +739,10 @@ def main(argv=None):
     ap.add_argument("--sensitivity-rtol", type=float, default=1e-9)
     ap.add_argument("--corrector-compare", type=float, nargs="*", default=[],
                     help="revolution counts of the E8 LP -> OT path with either corrector (corrector)")
+    ap.add_argument("--chain-rtol-compare", type=float, nargs="*", default=[],
+                    help="revolution counts of the E8 LP -> OT map, its evaluations at the case's path rtol "
+                         "against --chain-rtol (chain_rtol)")
+    ap.add_argument("--chain-rtol", type=float, default=1e-8)
     ap.add_argument("--profile", action="store_true", help="field cost per force model (kernels, us/eval)")
     ap.add_argument("--threads", type=int, default=None,
                     help="SPACEOPT_THREADS for this run: a Jacobian's columns split over this many threads")
@@ -709,7 +760,8 @@ def main(argv=None):
     out_path = Path(a.out)
     report = json.loads(out_path.read_text()) if out_path.exists() else {}
     report = {k: v for k, v in report.items()
-              if k in ("propagation", "e8", "field_profile", "e8_exact_route", "corrector", "threads", "sensitivity")}
+              if k in ("propagation", "e8", "field_profile", "e8_exact_route", "corrector", "threads", "sensitivity",
+                       "chain_rtol")}
     report["machine"] = {"cpu_count": os.cpu_count(), "load_avg_start": os.getloadavg(),
                          "jacobian_threads": int(os.environ.get("SPACEOPT_THREADS", "1")), "configfiles": a.configfile}
     report["measured"] = measured(Path(a.results))
@@ -756,6 +808,9 @@ def main(argv=None):
         write()
     for n in a.corrector_compare:
         report.setdefault("corrector", {})[f"n{n:g}"] = corrector_comparison(n)
+        write()
+    for n in a.chain_rtol_compare:
+        report.setdefault("chain_rtol", {})[f"n{n:g}"] = chain_rtol_comparison(n, a.chain_rtol, a.rounds)
         write()
     write()
     print(json.dumps(report, indent=2), file=sys.stderr)

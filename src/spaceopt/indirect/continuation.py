@@ -262,6 +262,7 @@ class Continuation:
         self._h_cap = float("inf")      # 0.8 of the last rejected step ('residual' growth)
         self._t_start = time.perf_counter()     # run() restarts it (_elapsed)
         self.last_rejection = ""        # why the corrector gave up last (_correct)
+        self.predicted_residual = float("nan")  # |F| where the corrector started last (_correct)
 
     def _resume(self, z0, tau0, tau1):
         """(checkpoint, saved state or None) of this path (``checkpoint_dir``; (None, None) without
@@ -453,6 +454,8 @@ class Continuation:
                 if chord and held is None:
                     held = ev
                 nF = _norm(F)
+                if not norms:
+                    self.predicted_residual = nF    # |F| at the predictor's point (the log)
                 norms.append(nF)
                 if nF <= opt.tol_step:
                     return True, x, F, ev, nF, evals
@@ -504,7 +507,7 @@ class Continuation:
         that can certify an end point another way starts from the best one (the free-time end
         game, :func:`spaceopt.studies.perturbed.end_point_of`)."""
         opt = self.opt
-        self._best = (np.inf, z)
+        self._best, self._polish_norms = (np.inf, z), [_norm(F)]
         z, J, F, nF = self._newton_polish(z, J, F, tau, solve, opt.step_rcond)
         for round_ in range(opt.flat_restarts if opt.flat_step > 0 else 0):
             if nF <= opt.tol_final * 1e3:
@@ -534,7 +537,8 @@ class Continuation:
             exc.diagnosis.update({"z_best": np.asarray(self._best[1]).tolist(), "residual_best": self._best[0]})
             raise exc
         self._log(f"{tag}: |F|={nF:.2e} steps={self.stats.steps} rejected={self.stats.rejected} "
-                  f"jacobians={self.stats.jacobians} ({self.stats.wall_time_s:.1f} s)")
+                  f"jacobians={self.stats.jacobians} ({self.stats.wall_time_s:.1f} s; polish |F| "
+                  f"{' -> '.join(f'{v:.1e}' for v in self._polish_norms)})")
         return z, J
 
     def _newton_polish(self, z, J, F, tau, solve, rcond, at_root=False):
@@ -559,6 +563,7 @@ class Continuation:
             z_new = z + d
             f_new, J_new, _, ok = self._eval(z_new, tau, final=True)
             n_new = _norm(f_new) if ok and np.all(np.isfinite(f_new)) else np.inf
+            self._polish_norms.append(n_new)
             if opt.polish_crossings and n_new > nF and not (crossings and n_new > 2.0 * nF):
                 z_new, f_new, J_new, n_new = self._shorter_step(z, d, nF, tau) or (z_new, f_new, J_new, n_new)
             self._note_best(z_new, n_new)
@@ -852,7 +857,8 @@ class ArclengthContinuation(Continuation):
             t = tangent(*ev, t)
             z, tau, F = uc[:n], uc[n], Fc
             self.stats.history.append({"tau": tau, "h": h, "iters": iters, "residual": nF})
-            self._log(f"s-step {self.stats.steps}: tau={tau:.6f} h={h:.3g} corr={iters} |F|={nF:.2e} "
+            self._log(f"s-step {self.stats.steps}: tau={tau:.6f} h={h:.3g} corr={iters} "
+                      f"|F_pred|={self.predicted_residual:.1e} |F|={nF:.2e} "
                       f"dtau/ds={t[-1]:+.3f} jac={self.stats.jacobians}")
             h = self._grow(h, iters, nF, opt.h_max)
             if checkpoint:
