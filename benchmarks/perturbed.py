@@ -42,10 +42,10 @@ Nine parts, all written to ``results/benchmarks/perturbed.json`` (parts not reru
    exact map at N revolutions with its sensitivities at the path rtol and at ``--sensitivity-rtol``
    (default 1e-9), side by side, with Newton's contraction ‖J⁻¹ δJ‖ (:func:`sensitivity_comparison`).
    ``--exact-route-sensitivity-rtol X [Y …]`` runs the exact route once per value (key ``_sens<X>``).
-9. ``chain_rtol`` (``--chain-rtol-compare N``): one full evaluation and one residual of the E8
-   LP → OT map at N revolutions at the case's path rtol for the unperturbed model and at
-   ``--chain-rtol`` (default 1e-8), side by side, with the steps and ‖J⁻¹ δJ‖
-   (:func:`chain_rtol_comparison`).
+9. ``chain_rtol`` (``--chain-rtol-compare N``): at the end point of the E8 unperturbed chain to
+   ε₁ (N revolutions), one full evaluation and one residual at the default path rtol (1e-9) and
+   at ``--chain-rtol`` (default 1e-7, ``config/e8_exact.yaml``'s), side by side, with the steps
+   and ‖J⁻¹ δJ‖ (:func:`chain_rtol_comparison`).
 
 Usage:
   python benchmarks/perturbed.py [--revs 5] [--rounds 10] [--baseline REV] [--e8-revs 200 ...]
@@ -526,12 +526,12 @@ def corrector_comparison(n_rev: float) -> dict:
 
 
 def chain_rtol_comparison(n_rev: float, rtol: float, rounds: int) -> dict:
-    """The unperturbed chain's evaluations at the case's path rtol and at ``rtol``: the E8 chain
-    from the zero guess to ε₁ at ``n_rev`` revolutions (the case's corrector), then at its end
-    point a full evaluation (f, ∂f/∂z, ∂f/∂τ) and a residual alone (the chord corrector's), side
-    by side in ``rounds`` alternating rounds after compilation; the paired median ratios, the
-    integration steps, the largest difference of f and ‖J⁻¹ δJ‖₂ (Newton's contraction with the
-    looser Jacobian at best). The case's rtol is its ``path_rtol`` for the unperturbed model."""
+    """The unperturbed chain's evaluations at the library's default path rtol (``PATH_RTOL``) and
+    at ``rtol`` (a profile's looser ``path_rtol``): the E8 chain from the zero guess to ε₁ at
+    ``n_rev`` revolutions (the case's settings), then at its end point a full evaluation (f, ∂f/∂z,
+    ∂f/∂τ) and a residual alone (the chord corrector's), side by side in ``rounds`` alternating
+    rounds after compilation; the paired median ratios, the integration steps, the largest
+    difference of f and ‖J⁻¹ δJ‖₂ (Newton's contraction with the looser Jacobian at best)."""
     import dataclasses
 
     import jax
@@ -539,6 +539,7 @@ def chain_rtol_comparison(n_rev: float, rtol: float, rounds: int) -> dict:
     import numpy as np
     from spaceopt.indirect import chain
     from spaceopt.indirect.shooting import residual, shoot
+    from spaceopt.indirect.transfer import PATH_RTOL
     from spaceopt.studies import perturbed as P
 
     pc = _perturbed_config()
@@ -546,10 +547,10 @@ def chain_rtol_comparison(n_rev: float, rtol: float, rounds: int) -> dict:
     _, ot = P.solve_for(_e8_at_eps_blend(pc, "unperturbed", n_rev), f"bench/chain-rtol/n{n_rev:g}",
                         path=pc["numerics"].get("homotopy_path", "arclength"), options=options)
     sh, z = ot.shooting, jnp.asarray(ot.z)
-    tols = {"case": chain._path_tolerances(sh),
-            "loose": chain._path_tolerances(dataclasses.replace(sh, path_rtol=rtol))}
-    out = {"n_rev": n_rev, "point": "the chain's OT extremal at eps_blend", "case_path_rtol": tols["case"][0],
-           "path_rtol": tols["loose"][0], "rounds": rounds}
+    tols = {name: chain._path_tolerances(dataclasses.replace(sh, path_rtol=value))
+            for name, value in (("default", PATH_RTOL), ("loose", rtol))}
+    out = {"n_rev": n_rev, "point": "the chain's OT extremal at eps_blend", "chain_path_rtol": sh.path_rtol,
+           "default_path_rtol": tols["default"][0], "path_rtol": tols["loose"][0], "rounds": rounds}
     evals = {}
     for kind, fn in (("full", shoot), ("residual", residual)):
         def run(name, fn=fn):
@@ -557,12 +558,12 @@ def chain_rtol_comparison(n_rev: float, rtol: float, rounds: int) -> dict:
             res = jax.block_until_ready(fn(sh, z, 1.0, ot.prm, *tols[name]))
             return res, time.perf_counter() - t0
         evals[kind] = {name: run(name)[0] for name in tols}          # compiled and kept
-        times, ratio = _side_by_side(lambda name: run(name)[1], "case", "loose", rounds)
-        out[kind] = {"wall_time_s": times, "median_ratio_case_over_loose": ratio}
+        times, ratio = _side_by_side(lambda name: run(name)[1], "default", "loose", rounds)
+        out[kind] = {"wall_time_s": times, "median_ratio_default_over_loose": ratio}
     full = evals["full"]
-    J, J_loose = np.asarray(full["case"][1]), np.asarray(full["loose"][1])
+    J, J_loose = np.asarray(full["default"][1]), np.asarray(full["loose"][1])
     out.update(steps={name: int(full[name][3]) for name in tols},
-               max_abs_diff_f=float(np.abs(np.asarray(full["case"][0]) - np.asarray(full["loose"][0])).max()),
+               max_abs_diff_f=float(np.abs(np.asarray(full["default"][0]) - np.asarray(full["loose"][0])).max()),
                newton_contraction=float(np.linalg.norm(np.linalg.solve(J_loose, J_loose - J), 2)))
     return out
 
@@ -740,9 +741,9 @@ def main(argv=None):
     ap.add_argument("--corrector-compare", type=float, nargs="*", default=[],
                     help="revolution counts of the E8 LP -> OT path with either corrector (corrector)")
     ap.add_argument("--chain-rtol-compare", type=float, nargs="*", default=[],
-                    help="revolution counts of the E8 LP -> OT map, its evaluations at the case's path rtol "
-                         "against --chain-rtol (chain_rtol)")
-    ap.add_argument("--chain-rtol", type=float, default=1e-8)
+                    help="revolution counts of the E8 unperturbed chain, its end point's evaluations at the "
+                         "default path rtol against --chain-rtol (chain_rtol)")
+    ap.add_argument("--chain-rtol", type=float, default=1e-7)
     ap.add_argument("--profile", action="store_true", help="field cost per force model (kernels, us/eval)")
     ap.add_argument("--threads", type=int, default=None,
                     help="SPACEOPT_THREADS for this run: a Jacobian's columns split over this many threads")
