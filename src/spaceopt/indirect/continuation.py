@@ -517,6 +517,7 @@ class Continuation:
                 break
             root, for_newton = found
             f, J_root, _, ok = self._eval(root, tau, final=True)
+            self._polish_norms.append(f"(flat root) {_norm(f):.1e}" if ok else "(flat root) failed")
             if not ok or not np.all(np.isfinite(f)):
                 break
             if not for_newton:
@@ -538,7 +539,7 @@ class Continuation:
             raise exc
         self._log(f"{tag}: |F|={nF:.2e} steps={self.stats.steps} rejected={self.stats.rejected} "
                   f"jacobians={self.stats.jacobians} ({self.stats.wall_time_s:.1f} s; polish |F| "
-                  f"{' -> '.join(f'{v:.1e}' for v in self._polish_norms)})")
+                  f"{' -> '.join(v if isinstance(v, str) else f'{v:.1e}' for v in self._polish_norms)})")
         return z, J
 
     def _newton_polish(self, z, J, F, tau, solve, rcond, at_root=False):
