@@ -146,20 +146,14 @@ def e8_route_times(e8: dict) -> dict:
 CONFIGFILES: list[str] = []     # --configfile: profiles over the study config, as ./dev reproduce merges them
 
 
-def _merged(base: dict, over: dict) -> dict:
-    """``over`` written over ``base`` key by key, nested mappings merged (Snakemake's --configfile)."""
-    out = dict(base)
-    for k, v in over.items():
-        out[k] = _merged(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
-    return out
-
-
 def _perturbed_config() -> dict:
-    """The perturbed section of the study config with the ``--configfile`` profiles over it."""
+    """The perturbed section of the study config with the ``--configfile`` profiles over it,
+    merged as Snakemake merges them (``snakemake.utils.update_config``: nested mappings key by key)."""
     import yaml
+    from snakemake.utils import update_config
     pc = yaml.safe_load((ROOT / "config/studies/perturbed.yaml").read_text())["perturbed"]
     for path in CONFIGFILES:
-        pc = _merged(pc, (yaml.safe_load(Path(path).read_text()) or {}).get("perturbed", {}))
+        update_config(pc, (yaml.safe_load(Path(path).read_text()) or {}).get("perturbed", {}))
     return pc
 
 
@@ -534,9 +528,7 @@ def chain_rtol_comparison(n_rev: float, rtol: float, rounds: int) -> dict:
     difference of f and ‖J⁻¹ δJ‖₂ (Newton's contraction with the looser Jacobian at best)."""
     import dataclasses
 
-    import jax
     import jax.numpy as jnp
-    import numpy as np
     from spaceopt.indirect import chain
     from spaceopt.indirect.shooting import residual, shoot
     from spaceopt.indirect.transfer import PATH_RTOL
@@ -551,20 +543,12 @@ def chain_rtol_comparison(n_rev: float, rtol: float, rounds: int) -> dict:
             for name, value in (("default", PATH_RTOL), ("loose", rtol))}
     out = {"n_rev": n_rev, "point": "the chain's OT extremal at eps_blend", "chain_path_rtol": sh.path_rtol,
            "default_path_rtol": tols["default"][0], "path_rtol": tols["loose"][0], "rounds": rounds}
-    evals = {}
     for kind, fn in (("full", shoot), ("residual", residual)):
-        def run(name, fn=fn):
-            t0 = time.perf_counter()
-            res = jax.block_until_ready(fn(sh, z, 1.0, ot.prm, *tols[name]))
-            return res, time.perf_counter() - t0
-        evals[kind] = {name: run(name)[0] for name in tols}          # compiled and kept
-        times, ratio = _side_by_side(lambda name: run(name)[1], "default", "loose", rounds)
+        results, times, ratio = _evaluated_side_by_side(lambda name, fn=fn: fn(sh, z, 1.0, ot.prm, *tols[name]),
+                                                        "default", "loose", rounds)
         out[kind] = {"wall_time_s": times, "median_ratio_default_over_loose": ratio}
-    full = evals["full"]
-    J, J_loose = np.asarray(full["default"][1]), np.asarray(full["loose"][1])
-    out.update(steps={name: int(full[name][3]) for name in tols},
-               max_abs_diff_f=float(np.abs(np.asarray(full["default"][0]) - np.asarray(full["loose"][0])).max()),
-               newton_contraction=float(np.linalg.norm(np.linalg.solve(J_loose, J_loose - J), 2)))
+        if kind == "full":
+            out.update(_looser_evaluation(results, "default", "loose"))
     return out
 
 
@@ -577,6 +561,34 @@ def _side_by_side(seconds, a, b, rounds: int) -> tuple[dict, float]:
         for name in ((a, b) if i % 2 == 0 else (b, a)):
             times[name].append(seconds(name))
     return times, statistics.median(ta / tb for ta, tb in zip(times[a], times[b]))
+
+
+def _evaluated_side_by_side(evaluate, a, b, rounds: int) -> tuple[dict, dict, float]:
+    """``evaluate(name)`` (one JAX evaluation) for the names a and b: each once first (compiled,
+    its result kept), then timed side by side, blocked until ready (:func:`_side_by_side`):
+    (results {a, b}, wall times, paired median ratio a / b)."""
+    import jax
+
+    def timed(name):
+        t0 = time.perf_counter()
+        out = jax.block_until_ready(evaluate(name))
+        return out, time.perf_counter() - t0
+
+    results = {name: timed(name)[0] for name in (a, b)}
+    times, ratio = _side_by_side(lambda name: timed(name)[1], a, b, rounds)
+    return results, times, ratio
+
+
+def _looser_evaluation(results: dict, tight: str, loose: str) -> dict:
+    """How a looser shooting evaluation (f, ∂f/∂z, ∂f/∂τ, steps, ok) agrees with a tighter one:
+    the integration steps of both, the largest difference of f and ‖J⁻¹ δJ‖₂, the rate at which
+    Newton with the looser Jacobian converges at best."""
+    import numpy as np
+
+    J, J_loose = np.asarray(results[tight][1]), np.asarray(results[loose][1])
+    return {"steps": {name: int(results[name][3]) for name in (tight, loose)},
+            "max_abs_diff_f": float(np.abs(np.asarray(results[tight][0]) - np.asarray(results[loose][0])).max()),
+            "newton_contraction": float(np.linalg.norm(np.linalg.solve(J_loose, J_loose - J), 2))}
 
 
 def _blend_jacobian_at(n_rev: float):
@@ -606,7 +618,6 @@ def sensitivity_comparison(n_rev: float, sensitivity_rtol: float, rounds: int) -
     with the looser Jacobian converges at best."""
     import dataclasses
 
-    import jax
     import numpy as np
     from spaceopt.indirect.shooting import shoot
 
@@ -616,20 +627,12 @@ def sensitivity_comparison(n_rev: float, sensitivity_rtol: float, rounds: int) -
                          "not the exact one (make it with --configfile config/e8_exact.yaml)")
     layouts = {"path_rtol": sh, "sensitivity_rtol": dataclasses.replace(sh, sensitivity_rtol=sensitivity_rtol)}
 
-    def run(name):
-        t0 = time.perf_counter()
-        out = jax.block_until_ready(shoot(layouts[name], z, 0.5, prm, *tol))
-        return out, time.perf_counter() - t0
-
-    tight, loose = run("path_rtol")[0], run("sensitivity_rtol")[0]
-    times, ratio = _side_by_side(lambda name: run(name)[1], "path_rtol", "sensitivity_rtol", rounds)
-    J, J_loose = np.asarray(tight[1]), np.asarray(loose[1])
+    results, times, ratio = _evaluated_side_by_side(lambda name: shoot(layouts[name], z, 0.5, prm, *tol),
+                                                    "path_rtol", "sensitivity_rtol", rounds)
     return {"n_rev": n_rev, "map": sh.switching, "path_rtol": tol[0], "sensitivity_rtol": sensitivity_rtol,
             "rounds": rounds, "wall_time_s": times, "median_ratio_path_over_sensitivity": ratio,
-            "steps": {"path_rtol": int(tight[3]), "sensitivity_rtol": int(loose[3])},
-            "max_abs_diff_f": float(np.abs(np.asarray(tight[0]) - np.asarray(loose[0])).max()),
-            "newton_contraction": float(np.linalg.norm(np.linalg.solve(J_loose, J_loose - J), 2)),
-            "cond_J": float(np.linalg.cond(J))}
+            **_looser_evaluation(results, "path_rtol", "sensitivity_rtol"),
+            "cond_J": float(np.linalg.cond(np.asarray(results["path_rtol"][1])))}
 
 
 def threads_comparison(n_rev: float, k: int, rounds: int) -> dict:
@@ -638,7 +641,6 @@ def threads_comparison(n_rev: float, k: int, rounds: int) -> dict:
     computation and split over ``k`` threads (:mod:`spaceopt.indirect.column_threads`), side by
     side: both compiled first, then ``rounds`` rounds in alternating order; wall times, their
     paired median ratio, and the largest differences of f, ∂f/∂z, ∂f/∂τ and the steps."""
-    import jax
     import jax.numpy as jnp
     from spaceopt.indirect.column_threads import THREADS_ENV
     from spaceopt.indirect.shooting import shoot
@@ -646,15 +648,13 @@ def threads_comparison(n_rev: float, k: int, rounds: int) -> dict:
     sh, z, prm, tol = _blend_jacobian_at(n_rev)
     before = os.environ.get(THREADS_ENV)
 
-    def run(threads):
+    def evaluate(threads):
         os.environ[THREADS_ENV] = str(threads)
-        t0 = time.perf_counter()
-        out = jax.block_until_ready(shoot(sh, z, 0.5, prm, *tol))
-        return out, time.perf_counter() - t0
+        return shoot(sh, z, 0.5, prm, *tol)
 
     try:
-        (one, _), (split, _) = run(1), run(k)
-        times, ratio = _side_by_side(lambda threads: run(threads)[1], 1, k, rounds)
+        results, times, ratio = _evaluated_side_by_side(evaluate, 1, k, rounds)
+        one, split = results[1], results[k]
     finally:
         os.environ.pop(THREADS_ENV) if before is None else os.environ.__setitem__(THREADS_ENV, before)
     return {"n_rev": n_rev, "threads": k, "map": sh.switching, "rtol": tol[0], "rounds": rounds,

@@ -1364,12 +1364,11 @@ def test_the_exact_e8_profile_validates_and_selects_the_exact_route():
     the sensitivities at a looser tolerance than the path's, the unperturbed chain's paths at a
     looser rtol than the default (the other models' unchanged), the full model started from J2."""
     import jsonschema
-    def merged(base, top):         # Snakemake's --configfile: nested mappings merged key by key
-        return {**base, **{k: merged(base[k], v) if isinstance(v, dict) and isinstance(base.get(k), dict) else v
-                           for k, v in top.items()}}
+    from snakemake.utils import update_config          # how --configfile merges nested mappings
     profile = yaml.safe_load((ROOT / "config/e8_exact.yaml").read_text())["perturbed"]
     over = profile["cases"]["e8"]
-    pc = merged(PC, profile)
+    pc = copy.deepcopy(PC)
+    update_config(pc, profile)
     jsonschema.validate(pc, yaml.safe_load((ROOT / "config/schema/perturbed.schema.yaml").read_text()))
     assert P.case_switching(pc, "e8") == "exact"
     steps = {step["model"]: step for step in P.e8_model_steps(pc)}
