@@ -625,7 +625,9 @@ def sensitivity_comparison(n_rev: float, sensitivity_rtol: float, rounds: int) -
     if sh.switching != "exact":
         raise SystemExit(f"--sensitivity-compare {n_rev:g}: the 4x4 artifact is on the {sh.switching} map, "
                          "not the exact one (make it with --configfile config/e8_exact.yaml)")
-    layouts = {"path_rtol": sh, "sensitivity_rtol": dataclasses.replace(sh, sensitivity_rtol=sensitivity_rtol)}
+    # both layouts named: under config/e8_exact.yaml the blend's own already has a sensitivity_rtol
+    layouts = {name: dataclasses.replace(sh, sensitivity_rtol=value)
+               for name, value in (("path_rtol", None), ("sensitivity_rtol", sensitivity_rtol))}
 
     results, times, ratio = _evaluated_side_by_side(lambda name: shoot(layouts[name], z, 0.5, prm, *tol),
                                                     "path_rtol", "sensitivity_rtol", rounds)
