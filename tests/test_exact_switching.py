@@ -29,6 +29,12 @@ def smoothed():
     return ot, dataclasses.replace(ot.shooting, switching="exact")
 
 
+@pytest.fixture(scope="module")
+def exact(smoothed):
+    """chain.to_exact of the smoothed extremal: the exact extremal that Newton reaches from it."""
+    return chain.to_exact(smoothed[0])
+
+
 def _switching_along(ot):
     """S on the smoothed extremal's dense trajectory, 400 samples per revolution: (K, S)."""
     Ks, ys = chain.dense(ot, samples_per_rev=400)
@@ -118,7 +124,7 @@ def test_the_columns_propagated_in_threads_give_the_same_map(smoothed, monkeypat
         shoot(sh, z, 1.0, ot.prm)
 
 
-def test_the_sensitivities_at_a_looser_tolerance_keep_f_and_the_root(smoothed):
+def test_the_sensitivities_at_a_looser_tolerance_keep_f_and_the_root(smoothed, exact):
     """Shooting.sensitivity_rtol: pass 2 (Φ) at the looser tolerance, in fewer steps; f stays
     pass 1's, the residual map's, to the bit; ∂f/∂z moves within Newton's margin
     (‖J⁻¹ δJ‖ < 0.1); Newton from the smoothed root lands on the same exact extremal."""
@@ -135,17 +141,15 @@ def test_the_sensitivities_at_a_looser_tolerance_keep_f_and_the_root(smoothed):
     np.testing.assert_array_equal(f_l, f)
     rho = np.linalg.norm(np.linalg.solve(J, J_l - J), 2)
     assert 0 < rho < 0.1
-    ex = chain.to_exact(ot)
     ex_l = chain.to_exact(dataclasses.replace(ot, shooting=dataclasses.replace(ot.shooting, sensitivity_rtol=1e-7)))
     assert ex_l.shooting.sensitivity_rtol == 1e-7
-    np.testing.assert_allclose(ex_l.z, ex.z, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(ex_l.z, exact.z, rtol=0, atol=1e-9)
 
 
-def test_newton_from_the_smoothed_root_lands_on_the_exact_extremal(smoothed):
+def test_newton_from_the_smoothed_root_lands_on_the_exact_extremal(smoothed, exact):
     """chain.to_exact: one Newton step from the ε_f root; the exact extremal's m_f and Δt lie
     within ε_f's order of the smoothed ones, and it keeps the smoothed switch structure."""
-    ot, _ = smoothed
-    ex = chain.to_exact(ot)
+    ot, ex = smoothed[0], exact
     assert ex.shooting.switching == "exact" and ex.stats["jacobian_evaluations"] <= 3
     f, _ = residual(ex.shooting, jnp.asarray(ex.z), 1.0, ex.prm)
     assert float(jnp.max(jnp.abs(f))) < 1e-9
@@ -167,17 +171,16 @@ def test_the_exact_layout_is_refused_where_it_is_undefined():
         Shooting(Model("ot", "eps"), (0, 1), switching="bang")
 
 
-def test_perturbations_switched_on_and_changed_on_the_exact_map(smoothed):
+def test_perturbations_switched_on_and_changed_on_the_exact_map(exact):
     """studies.perturbed.perturb_from_unperturbed from an exact unperturbed extremal: J2 switched
     on by τ on the exact map lands on the exact J2 extremal that Newton reaches from the smoothed
     J2 one; chain.continue_in_model then moves it to 4×4 on the exact map."""
     from spaceopt.studies import perturbed as P
-    ot, _ = smoothed
     tr_u = dataclasses.replace(TR, perturbations=None, epoch_utc=None)
     unperturbed = chain.to_exact(chain.solve_ot(chain.solve_lp(tr_u), 15.0))
     j2 = P.perturb_from_unperturbed(unperturbed, TR, "j2 on", path="tau")
     assert j2.shooting.switching == "exact" and j2.shooting.model.perturbed
-    np.testing.assert_allclose(j2.z, chain.to_exact(ot).z, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(j2.z, exact.z, rtol=0, atol=1e-8)
     with pytest.raises(Exception, match="no smoothing eps"):
         P.perturb_from_unperturbed(unperturbed, TR, "j2 on", eps_smooth=1e-2)
     # the force model changed on the exact map (the data's smoothing eps is no datum of it)
@@ -188,12 +191,11 @@ def test_perturbations_switched_on_and_changed_on_the_exact_map(smoothed):
     assert bool(ok) and float(jnp.max(jnp.abs(f))) < 1e-9 and np.max(np.abs(g44.z - j2.z)) > 1e-9
 
 
-def test_an_exact_solution_is_sampled_saved_and_read_back(smoothed, tmp_path):
+def test_an_exact_solution_is_sampled_saved_and_read_back(exact, tmp_path):
     """The dense trajectory of an exact solution steps to its switches (its last sample is the
     shooting map's y(K_f)), its throttle samples are 0 or 1, and its artifact reads back as the
     exact problem."""
-    ot, _ = smoothed
-    ex = chain.to_exact(ot)
+    ex = exact
     _, ys = chain.dense(ex, samples_per_rev=50)
     yf, _ = final_state(ex.shooting, jnp.asarray(ex.z), 1.0, ex.prm)
     assert np.max(np.abs(ys[-1] - np.asarray(yf))) < 1e-8
