@@ -87,6 +87,7 @@ STATUS = ("running", "done", "event without a crossing", "switch list full", "st
           "integration failed")
 
 
+@partial(jax.jit, static_argnums=0)
 def switching(model, K, y, tau, prm):
     """S(K, y) of the OT throttle at τ, the problem data moved along a 'param' path."""
     return ot_delta(model, K, y, tau, params_at(model, prm, tau))[1]
@@ -296,36 +297,42 @@ def transversality(sh, z, tau, prm, delta):
     return y0[sh.model.n + hm.LK] + hamiltonian(sh.model, 0.0, y0, tau, prm, delta=delta)
 
 
+@partial(jax.jit, static_argnums=0)
 def _pass1(sh, z, tau, prm, rtol, atol):
-    """Pass 1 (:func:`switches`) from the unknowns z of the layout ``sh``."""
+    """Pass 1 (:func:`switches`) from the unknowns z of the layout ``sh``: one compiled program
+    per layout that the residual, y(K_f), the switch list, the Jacobian and the dense trajectory
+    share (fused into each of them, pass 1 was compiled five times: 14 s each on E1 J2)."""
     y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
     return switches(sh.model, y0, z[sh.kf_index], tau, prm, rtol, atol, sh.max_steps)
 
 
 @partial(jax.jit, static_argnums=0)
-def residual(sh, z, tau, prm, rtol, atol):
-    """f(z, τ) of the exact map, and the success flag (pass 1 only)."""
-    kf = sh.kf_index
-    p1 = _pass1(sh, z, tau, prm, rtol, atol)
-    r_term = terminal_residual(sh, p1["yf"], z[kf], params_at(sh.model, prm, tau), tau)
+def _residual_of(sh, z, tau, prm, p1):
+    """f(z, τ) and the success flag from pass 1's output."""
+    r_term = terminal_residual(sh, p1["yf"], z[sh.kf_index], params_at(sh.model, prm, tau), tau)
     f = jnp.concatenate([jnp.atleast_1d(transversality(sh, z, tau, prm, p1["d0"])), r_term])
     return f, p1["status"] == DONE
 
 
-@partial(jax.jit, static_argnums=0)
+def residual(sh, z, tau, prm, rtol, atol):
+    """f(z, τ) of the exact map, and the success flag (pass 1 only)."""
+    return _residual_of(sh, z, tau, prm, _pass1(sh, z, tau, prm, rtol, atol))
+
+
 def final_state(sh, z, tau, prm, rtol, atol):
     """y(K_f) of the exact map, and the success flag."""
     p1 = _pass1(sh, z, tau, prm, rtol, atol)
     return p1["yf"], p1["status"] == DONE
 
 
-def _start(sh, z, tau, prm, rtol, atol):
-    """y(0), Φ(0) (the τ column last) and pass 1 (:func:`switches`)."""
+@partial(jax.jit, static_argnums=0)
+def _start(sh, z, tau, prm):
+    """y(0) and Φ(0) = ∂y(0)/∂(z without K_f, τ), the τ column last."""
     y0, dy0_dz, dy0_dtau = start_with_sensitivities(sh, z, tau, prm)
-    p1 = switches(sh.model, y0, z[sh.kf_index], tau, prm, rtol, atol, sh.max_steps)
-    return y0, jnp.concatenate([dy0_dz, dy0_dtau[:, None]], axis=1), p1
+    return y0, jnp.concatenate([dy0_dz, dy0_dtau[:, None]], axis=1)
 
 
+@partial(jax.jit, static_argnums=0)
 def _assemble(sh, z, tau, prm, yf, Phif, d_last, d0):
     """f(z, τ), ∂f/∂z, ∂f/∂τ from y(K_f), Φ(K_f) and the throttle on the first and last arcs."""
     kf, model = sh.kf_index, sh.model
@@ -344,59 +351,61 @@ def _assemble(sh, z, tau, prm, yf, Phif, d_last, d0):
     return f, J, ftau
 
 
-@partial(jax.jit, static_argnums=0)
-def shoot(sh, z, tau, prm, rtol, atol, sens_rtol, sens_atol):
+_pass2_block = jax.jit(propagate_with_sensitivities, static_argnums=(0, 8))
+
+
+def shoot(sh, z, tau, prm, rtol, atol, sens_rtol, sens_atol, k=1):
     """f(z, τ), ∂f/∂z, ∂f/∂τ, steps of both passes, success (:func:`.shooting.shoot`'s tuple).
 
     f and the K_f column come from pass 1 at (rtol, atol), as in :func:`residual`; pass 2
-    integrates the sensitivities at (sens_rtol, sens_atol) (``Shooting.sensitivity_rtol``)."""
-    y0, Phi0, p1 = _start(sh, z, tau, prm, rtol, atol)
-    _, Phif, d_last, steps2, ok2 = propagate_with_sensitivities(
-        sh.model, y0, Phi0, z[sh.kf_index], tau, prm, sens_rtol, sens_atol, sh.max_steps, p1["d0"], p1["Ks"],
-        p1["n_switches"])
+    integrates the sensitivities at (sens_rtol, sens_atol) (``Shooting.sensitivity_rtol``), with
+    its columns split over ``k`` threads where k > 1 (.column_threads). Each pass is a compiled
+    program of its own; under a JAX transformation they trace into one computation."""
+    p1 = _pass1(sh, z, tau, prm, rtol, atol)
+    y0, Phi0 = _start(sh, z, tau, prm)
+
+    def block(Phi, tangent):
+        return _pass2_block(sh.model, y0, Phi, z[sh.kf_index], tau, prm, sens_rtol, sens_atol, sh.max_steps,
+                            p1["d0"], p1["Ks"], p1["n_switches"], tangent)
+    if k > 1:
+        _, Phif, d_last, steps2, ok2 = column_threads.propagate(block, Phi0, k)
+    else:
+        _, Phif, d_last, steps2, ok2 = block(Phi0, jnp.zeros(Phi0.shape[1]).at[-1].set(1.0))
     return (*_assemble(sh, z, tau, prm, p1["yf"], Phif, d_last, p1["d0"]), p1["steps"] + steps2,
             ok2 & (p1["status"] == DONE))
 
 
-_start_jit = jax.jit(_start, static_argnums=0)
-_assemble_jit = jax.jit(_assemble, static_argnums=0)
-_pass2_block = jax.jit(propagate_with_sensitivities, static_argnums=(0, 8))
+shoot_threaded = shoot     # .shooting.shoot's name for the map with k > 1 threads (k: shoot's last argument)
 
 
-def shoot_threaded(sh, z, tau, prm, rtol, atol, sens_rtol, sens_atol, k):
-    """:func:`shoot` with pass 2's columns split over ``k`` threads (.column_threads)."""
-    y0, Phi0, p1 = _start_jit(sh, z, tau, prm, rtol, atol)
-    _, Phif, d_last, steps2, ok2 = column_threads.propagate(
-        lambda Phi, tangent: _pass2_block(sh.model, y0, Phi, z[sh.kf_index], tau, prm, sens_rtol, sens_atol,
-                                          sh.max_steps, p1["d0"], p1["Ks"], p1["n_switches"], tangent), Phi0, k)
-    return (*_assemble_jit(sh, z, tau, prm, p1["yf"], Phif, d_last, p1["d0"]), p1["steps"] + steps2,
-            ok2 & (p1["status"] == DONE))
-
-
-@partial(jax.jit, static_argnums=0)
 def switch_points(sh, z, tau, prm, rtol, atol):
     """Pass 1's switches of the unknowns z: (δ on the first arc, K_s array, count, status)."""
     p1 = _pass1(sh, z, tau, prm, rtol, atol)
     return p1["d0"], p1["Ks"], p1["n_switches"], p1["status"]
 
 
-@partial(jax.jit, static_argnums=(0, 4, 5))
 def dense(sh, z, tau, prm, n, max_steps, rtol=1e-12, atol=1e-13):
     """y(K) of the exact map's trajectory on ``n`` uniform K samples in [0, K_f]: (K, y).
 
     The switches of pass 1 (at the shooting tolerances) fix δ on each arc; one integration over
     [0, K_f] then reads δ by the switch count below K and steps exactly to every switch
     (diffrax ``jump_ts``), so no step straddles a discontinuity of the field."""
+    p1 = _pass1(sh, z, tau, prm, sh.rtol, sh.atol)
+    return _dense_over_arcs(sh, z, tau, prm, p1["d0"], p1["Ks"], n, max_steps, rtol, atol)
+
+
+@partial(jax.jit, static_argnums=(0, 6, 7))
+def _dense_over_arcs(sh, z, tau, prm, d0, Ks_switch, n, max_steps, rtol, atol):
+    """:func:`dense`'s integration over the arcs of pass 1 (δ = d0 before the first switch)."""
     kf = sh.kf_index
     y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
-    p1 = switches(sh.model, y0, z[kf], tau, prm, sh.rtol, sh.atol, sh.max_steps)   # y0 is needed below
     Ks = jnp.linspace(0.0, z[kf], n)
 
     def rhs(K, y, _):
-        odd = jnp.searchsorted(p1["Ks"], K, side="right") % 2 == 1
-        return field(sh.model, K, y, tau, prm, delta=jnp.where(odd, 1.0 - p1["d0"], p1["d0"]))
+        odd = jnp.searchsorted(Ks_switch, K, side="right") % 2 == 1
+        return field(sh.model, K, y, tau, prm, delta=jnp.where(odd, 1.0 - d0, d0))
 
-    controller = diffrax.ClipStepSizeController(diffrax.PIDController(rtol=rtol, atol=atol), jump_ts=p1["Ks"])
+    controller = diffrax.ClipStepSizeController(diffrax.PIDController(rtol=rtol, atol=atol), jump_ts=Ks_switch)
     out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, z[kf], None, y0,
                               stepsize_controller=controller, saveat=diffrax.SaveAt(ts=Ks), max_steps=max_steps)
     return Ks, out.ys

@@ -23,6 +23,13 @@ Sensitivities (3.1.5–3.1.6): Φ = ∂y/∂(z, τ) obeys dΦ/dK = g_y Φ (+ g_�
 directional derivatives come from ``jax.linearize`` of the field, one tangent per column.
 Integration: diffrax Dopri8 (8(7) Dormand–Prince) with a PID step-size controller whose error
 norm covers the state and costates (the sensitivities ride along on the same steps).
+
+:func:`field` and :func:`hamiltonian` are ``jax.jit`` functions of a static model: JAX traces
+them once per model and argument shapes in a process and reuses the jaxpr (and its linearisation)
+at every further call site, where a plain function is traced again at each one (diffrax alone
+traces a vector field three times per solve). XLA inlines them, so the compiled programs and
+their run time are unchanged; tracing an E1 J2 Jacobian program takes 2.7 s instead of 6.2 s, the
+exact map's 5.0 s instead of 11.9 s (scratch, 29 Nov).
 """
 from __future__ import annotations
 
@@ -150,6 +157,7 @@ def _h_perturbation(model: Model, K, x, lam, tau, prm, shift):
     return _pert_weight(model, tau) * hm.h_pert(K, x, lam, prm, shift)
 
 
+@partial(jax.jit, static_argnums=0)
 def field(model: Model, K, y, tau, prm, delta=None):
     """dy/dK of ``model`` at homotopy parameter τ (perturbation field added when perturbed).
 
@@ -215,6 +223,7 @@ def _unperturbed_field(model: Model, K, y, tau, prm, delta=None):
     return g
 
 
+@partial(jax.jit, static_argnums=0)
 def hamiltonian(model: Model, K, y, tau, prm, delta=None):
     """H entering the transversality residual p_LK(0) + H(0): (1−τ) H_LP' + τ H_target [+ τ H_p];
     ``delta`` as in :func:`field`."""

@@ -171,12 +171,16 @@ def _final_state(sh: Shooting, z, tau, prm, rtol, atol):
     return yf, ok
 
 
-@partial(jax.jit, static_argnums=0)
 def _residual(sh: Shooting, z, tau, prm, rtol, atol):
-    kf = sh.kf_index
+    """f from y(K_f): the propagation is :func:`_final_state`'s compiled program, not a copy."""
     yf, ok = _final_state(sh, z, tau, prm, rtol, atol)
-    r_term = terminal_residual(sh, yf, z[kf], params_at(sh.model, prm, tau), tau)
-    return jnp.concatenate([jnp.atleast_1d(transversality(sh, z, tau, prm)), r_term]), ok
+    return _residual_at(sh, z, tau, prm, yf), ok
+
+
+@partial(jax.jit, static_argnums=0)
+def _residual_at(sh: Shooting, z, tau, prm, yf):
+    r_term = terminal_residual(sh, yf, z[sh.kf_index], params_at(sh.model, prm, tau), tau)
+    return jnp.concatenate([jnp.atleast_1d(transversality(sh, z, tau, prm)), r_term])
 
 
 def start_with_sensitivities(sh: Shooting, z, tau, prm):
