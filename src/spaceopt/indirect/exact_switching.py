@@ -59,8 +59,7 @@ import jax.numpy as jnp
 
 from . import column_threads, hamiltonians as hm
 from .flow import _primal_rms, field, hamiltonian, ot_delta, params_at
-from .shooting import (initial_state, start_with_sensitivities, terminal_residual,
-                       terminal_with_derivatives)
+from .shooting import _start_jit, initial_state, terminal_residual, terminal_with_derivatives
 
 SEGMENT_STEPS = 32        # Dopri8 steps per segment of pass 1 (sizes its dense output)
 SAMPLES_PER_STEP = 8      # samples of S per step of a segment (arcs shorter than a step)
@@ -326,13 +325,6 @@ def final_state(sh, z, tau, prm, rtol, atol):
 
 
 @partial(jax.jit, static_argnums=0)
-def _start(sh, z, tau, prm):
-    """y(0) and Φ(0) = ∂y(0)/∂(z without K_f, τ), the τ column last."""
-    y0, dy0_dz, dy0_dtau = start_with_sensitivities(sh, z, tau, prm)
-    return y0, jnp.concatenate([dy0_dz, dy0_dtau[:, None]], axis=1)
-
-
-@partial(jax.jit, static_argnums=0)
 def _assemble(sh, z, tau, prm, yf, Phif, d_last, d0):
     """f(z, τ), ∂f/∂z, ∂f/∂τ from y(K_f), Φ(K_f) and the throttle on the first and last arcs."""
     kf, model = sh.kf_index, sh.model
@@ -362,7 +354,7 @@ def shoot(sh, z, tau, prm, rtol, atol, sens_rtol, sens_atol, k=1):
     its columns split over ``k`` threads where k > 1 (.column_threads). Each pass is a compiled
     program of its own; under a JAX transformation they trace into one computation."""
     p1 = _pass1(sh, z, tau, prm, rtol, atol)
-    y0, Phi0 = _start(sh, z, tau, prm)
+    y0, Phi0 = _start_jit(sh, z, tau, prm)       # y(0), Φ(0) as on the smoothed map
 
     def block(Phi, tangent):
         return _pass2_block(sh.model, y0, Phi, z[sh.kf_index], tau, prm, sens_rtol, sens_atol, sh.max_steps,
