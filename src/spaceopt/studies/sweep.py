@@ -34,10 +34,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from functools import partial
 
-import diffrax
-import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -45,8 +42,8 @@ from ..errors import ConfigError, ConvergenceError
 from ..indirect import chain
 from ..indirect import hamiltonians as hm
 from ..indirect.continuation import ContinuationOptions
-from ..indirect.flow import Model, field as flow_field
-from ..indirect.shooting import Shooting, initial_state, shoot
+from ..indirect.flow import Model
+from ..indirect.shooting import Shooting, final_state, shoot
 from ..indirect.transfer import Transfer, step_cap
 from ..constants import DAY
 from . import multirev
@@ -91,11 +88,23 @@ def newton(sh: Shooting, z0, prm: dict, tol: float, max_iter: int):
 
     Fails (NewtonFailure) on an integration failure, a non-finite residual or a residual that
     does not at least halve once past the first iteration.
+
+    Each iterate is first propagated without sensitivities (:func:`final_state`, a tenth of the
+    Jacobian's cost). Its step control reads the same primal error as the Jacobian's, so it fails
+    where the Jacobian's propagation would, and a bad iterate is dropped at that cost: it runs to
+    the step cap (2 revolutions: 20 000 steps, 8 s with sensitivities, three times in a row of the
+    quick profile). Measured side by side, cold, rows at 2 and 4 revolutions: CPU 91 → 50 s and
+    86 → 53 s, every T_min and the way each cell was obtained unchanged to the bit (29 Nov).
     """
     z = np.asarray(z0, float).copy()
-    stats = {"jacobian_evaluations": 0, "integration_steps_total": 0, "history": []}
+    stats = {"jacobian_evaluations": 0, "screening_propagations": 0, "integration_steps_total": 0, "history": []}
     prev = math.inf
     for _ in range(max_iter):
+        yf, ok = final_state(sh, jnp.asarray(z), 1.0, prm)
+        stats["screening_propagations"] += 1
+        if not bool(ok) or not bool(jnp.all(jnp.isfinite(yf))):
+            stats["history"].append(math.inf)
+            raise NewtonFailure("integration failed", stats)
         f, J, ftau, nsteps, ok = shoot(sh, jnp.asarray(z), 1.0, prm)
         f, J, ftau = np.asarray(f), np.asarray(J), np.asarray(ftau)
         stats["jacobian_evaluations"] += 1
@@ -119,20 +128,10 @@ def newton(sh: Shooting, z0, prm: dict, tol: float, max_iter: int):
 
 # ---------------------------------------------------------------- cell results
 
-@partial(jax.jit, static_argnums=(0, 1))
-def _final_state(model: Model, max_steps: int, y0, K_f, prm):
-    """y(K_f) of the pure problem (τ = 1), primal only, at the end-point tolerance of the chain."""
-    rhs = lambda K, y, args: flow_field(model, K, y, 1.0, args)
-    out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, K_f, None, y0, args=prm,
-                              stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-13),
-                              max_steps=max_steps)
-    return out.ys[-1]
-
-
 def cell_record(tr: Transfer, sh: Shooting, z, prm: dict, method: str, stats: dict, wall_s: float) -> dict:
     """Scalars of a converged cell in physical units (T_min always on: m_f = m₀ − T Δt / c)."""
-    zj = jnp.asarray(z)
-    yf = np.asarray(_final_state(sh.model, sh.max_steps, initial_state(sh, zj, prm), zj[sh.kf_index], prm))
+    # y(K_f) at the chain's end-point tolerance (rtol 1e-12), by the screening propagation's program
+    yf = np.asarray(final_state(dataclasses.replace(sh, rtol=1e-12, atol=1e-13), jnp.asarray(z), 1.0, prm)[0])
     T = float(z[-1]) * tr.force_unit
     tof = float(yf[hm.TIME]) * tr.tu
     m_f = float(yf[hm.MASS]) * tr.m0
