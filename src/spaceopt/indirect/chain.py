@@ -32,7 +32,7 @@ from ..errors import ConvergenceError
 from . import exact_switching, hamiltonians as hm
 from .continuation import (POLISH_FAILED, STEP_SIZES, ArclengthContinuation, ArclengthOptions,
                            Continuation, ContinuationOptions, failure_statistics)
-from .flow import Model, field as flow_field, model_blend_params
+from .flow import Model, field as flow_field, model_blend_params, padded_samples, uniform_samples
 from .multiple_shooting import MultipleShooting, node_positions, start_nodes
 from .multiple_shooting import residual as multiple_residual, shoot as multiple_shoot
 from .shooting import Shooting, initial_state, residual, shoot
@@ -474,13 +474,14 @@ def dense(sol: Solution, samples_per_rev: int = 200):
         Ks, ys = exact_switching.dense(sol.shooting, jnp.asarray(sol.z), sol.tau, sol.prm, n, sol.shooting.max_steps)
         return np.asarray(Ks), np.asarray(ys)
     y0 = initial_state(sol.shooting, jnp.asarray(sol.z), sol.prm)
-    Ks, ys = _dense(final_model(sol), y0, sol.K_f, sol.prm, n, sol.shooting.max_steps, sol.tau)
-    return np.asarray(Ks), np.asarray(ys)
+    Ks, ys = _dense(final_model(sol), y0, sol.K_f, sol.prm, n, padded_samples(n), sol.shooting.max_steps, sol.tau)
+    return np.asarray(Ks)[:n], np.asarray(ys)[:n]
 
 
-@partial(jax.jit, static_argnums=(0, 4, 5))
-def _dense(model, y0, K_f, prm, n, max_steps, tau=1.0):
-    Ks = jnp.linspace(0.0, K_f, n)
+@partial(jax.jit, static_argnums=(0, 5, 6))
+def _dense(model, y0, K_f, prm, n, n_pad, max_steps, tau=1.0):
+    """The trajectory on n uniform samples, padded to n_pad (:func:`.flow.padded_samples`)."""
+    Ks = uniform_samples(K_f, n, n_pad)
     rhs = lambda K, y, args: flow_field(model, K, y, tau, args)
     out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, K_f, None, y0, args=prm,
                               stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-13),

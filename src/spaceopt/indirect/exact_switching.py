@@ -58,7 +58,7 @@ import jax
 import jax.numpy as jnp
 
 from . import column_threads, hamiltonians as hm
-from .flow import _primal_rms, field, hamiltonian, ot_delta, params_at
+from .flow import _primal_rms, field, hamiltonian, ot_delta, padded_samples, params_at, uniform_samples
 from .shooting import _start_jit, initial_state, terminal_residual, terminal_with_derivatives
 
 SEGMENT_STEPS = 32        # Dopri8 steps per segment of pass 1 (sizes its dense output)
@@ -383,15 +383,17 @@ def dense(sh, z, tau, prm, n, max_steps, rtol=1e-12, atol=1e-13):
     [0, K_f] then reads δ by the switch count below K and steps exactly to every switch
     (diffrax ``jump_ts``), so no step straddles a discontinuity of the field."""
     p1 = _pass1(sh, z, tau, prm, sh.rtol, sh.atol)
-    return _dense_over_arcs(sh, z, tau, prm, p1["d0"], p1["Ks"], n, max_steps, rtol, atol)
+    Ks, ys = _dense_over_arcs(sh, z, tau, prm, p1["d0"], p1["Ks"], n, padded_samples(n), max_steps, rtol, atol)
+    return Ks[:n], ys[:n]
 
 
-@partial(jax.jit, static_argnums=(0, 6, 7))
-def _dense_over_arcs(sh, z, tau, prm, d0, Ks_switch, n, max_steps, rtol, atol):
-    """:func:`dense`'s integration over the arcs of pass 1 (δ = d0 before the first switch)."""
+@partial(jax.jit, static_argnums=(0, 7, 8))
+def _dense_over_arcs(sh, z, tau, prm, d0, Ks_switch, n, n_pad, max_steps, rtol, atol):
+    """:func:`dense`'s integration over the arcs of pass 1 (δ = d0 before the first switch), on n
+    samples padded to n_pad (:func:`.flow.padded_samples`)."""
     kf = sh.kf_index
     y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
-    Ks = jnp.linspace(0.0, z[kf], n)
+    Ks = uniform_samples(z[kf], n, n_pad)
 
     def rhs(K, y, _):
         odd = jnp.searchsorted(Ks_switch, K, side="right") % 2 == 1

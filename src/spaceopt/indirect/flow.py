@@ -291,3 +291,21 @@ def propagate_with_sensitivities(model: Model, y0, Phi0, Kf, tau, prm, rtol, ato
     sol = _solve(rhs, (y0, Phi0), K0, Kf, (tau, prm), rtol, atol, max_steps, diffrax.SaveAt(t1=True))
     yf, Phif = sol.ys[0][-1], sol.ys[1][-1]
     return yf, Phif, sol.stats["num_steps"], sol.result == diffrax.RESULTS.successful
+
+
+# Dense output: the sample count is a static shape, so each count used to compile its own
+# program (an artifact's samples, its re-sampled check at another count, each transfer's
+# n_rev). The programs are compiled for a padded count instead and the grid is filled up with
+# K_f (diffrax's SaveAt(ts) takes repeated times): one program serves every count up to
+# DENSE_MIN_SAMPLES, and above it every count up to the next power of two.
+DENSE_MIN_SAMPLES = 4096
+
+
+def padded_samples(n: int) -> int:
+    """The sample count a dense program is compiled for, ≥ n."""
+    return max(DENSE_MIN_SAMPLES, 1 << (int(n) - 1).bit_length())
+
+
+def uniform_samples(K_f, n, n_pad: int):
+    """n uniform samples of [0, K_f] (n traced), then K_f up to the static length n_pad."""
+    return K_f * (jnp.minimum(jnp.arange(n_pad), n - 1) / (n - 1))      # the last is K_f exactly
