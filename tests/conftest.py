@@ -1,6 +1,10 @@
+import dataclasses
 import os
 import sys
 from pathlib import Path
+
+import pytest
+import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 os.environ.setdefault("MPLBACKEND", "Agg")
@@ -12,6 +16,58 @@ sys.path.insert(0, str(ROOT / "workflow" / "scripts"))
 # order by test count had it (17th of 38), it left one worker running it alone at the end.
 LONGEST_FIRST = ("test_quick_reproduction.py",)
 
+# Files that start from the same perturbed E1 extremal (the session fixtures below) go to one
+# xdist worker together, so that it is solved once and its compiled programs are built once: run
+# on two workers at the same time, each file compiled them for itself.
+SHARED_EXTREMAL = {"test_exact_switching.py": "e1_j2", "test_tmin_bound_model.py": "e1_j2",
+                   "test_free_time.py": "e1_g44_era", "test_scan_families.py": "e1_g44_era"}
+EPOCH = "2021-05-09T12:00:00"
+
 
 def pytest_collection_modifyitems(items):
     items.sort(key=lambda item: item.path.name not in LONGEST_FIRST)
+
+
+def pytest_xdist_make_scheduler(config, log):
+    """--dist loadfile with the files of one SHARED_EXTREMAL group as one unit of work."""
+    if config.getoption("dist") != "loadfile":
+        return None
+    from xdist.scheduler import LoadFileScheduling
+
+    class SharedExtremalScheduling(LoadFileScheduling):
+        def _split_scope(self, nodeid):
+            path = super()._split_scope(nodeid)
+            return SHARED_EXTREMAL.get(Path(path).name, path)
+
+    return SharedExtremalScheduling(config, log)
+
+
+def e1_transfer(**changes):
+    """The E1 transfer of config/studies/multirev.yaml (2 revolutions), with ``changes``."""
+    from spaceopt.studies import multirev
+    cfg = yaml.safe_load((ROOT / "config" / "studies" / "multirev.yaml").read_text())["multirev"]
+    return dataclasses.replace(multirev.transfer_from_config(cfg, "e1"), **changes)
+
+
+@pytest.fixture(scope="session")
+def e1_j2_ot():
+    """E1 OT 15 N under J2 at EPOCH, smoothed at ε_f = 1e-5 (LP with J2 → OT → ε)."""
+    from spaceopt.indirect import chain
+    tr = e1_transfer(perturbations={"geopotential": "j2"}, epoch_utc=EPOCH)
+    return chain.solve_ot(chain.solve_lp(tr, perturbed=True), 15.0)
+
+
+@pytest.fixture(scope="session")
+def e1_g44_era():
+    """E1 OT 15 N (2 revolutions) with EGM96 4×4 on the Earth rotation angle at EPOCH, from the
+    unperturbed OT extremal with the perturbations switched on (studies.perturbed), before the
+    free-time end game; and that unperturbed extremal."""
+    from spaceopt.indirect import chain
+    from spaceopt.indirect.continuation import ContinuationOptions
+    from spaceopt.studies import perturbed as P
+    quiet = ContinuationOptions(verbose=False)
+    tr = e1_transfer()
+    ot = chain.solve_ot(chain.solve_lp(tr, quiet), 15.0, quiet)
+    tr_p = dataclasses.replace(tr, perturbations={"geopotential": {"degree": 4, "order": 4}, "earth_angle": "era"},
+                               epoch_utc=EPOCH)
+    return P.perturb_from_unperturbed(ot, tr_p, "e1 g44", options=quiet), ot

@@ -2,16 +2,13 @@
 the fixed-time family, first on model families m_f(t_f) whose φ = −dm_f/dt_f is known, then on
 a perturbed 2-revolution transfer (E1 orbits, EGM96 4×4 with the Earth's rotation: H depends on t)."""
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 
 from spaceopt.indirect import free_time as ft
 from spaceopt.indirect.continuation import ContinuationOptions
 
-ROOT = Path(__file__).resolve().parents[1]
 QUIET = ContinuationOptions(verbose=False)
 
 
@@ -238,18 +235,10 @@ def test_brent_returns_a_crossing_from_minus_to_plus_inside_a_wiggly_bracket():
 
 
 @pytest.fixture(scope="module")
-def perturbed_e1():
-    """E1 OT 15 N (2 revolutions) with EGM96 4×4 and the Earth rotation angle switched on, and
-    the end game from it with probes 0.01 d apart."""
-    from spaceopt.indirect import chain
-    from spaceopt.studies import multirev, perturbed as P
-
-    cfg = yaml.safe_load((ROOT / "config" / "studies" / "multirev.yaml").read_text())["multirev"]
-    tr = multirev.transfer_from_config(cfg, "e1")
-    ot = chain.solve_ot(chain.solve_lp(tr, QUIET), 15.0, QUIET)
-    tr_p = dataclasses.replace(tr, perturbations={"geopotential": {"degree": 4, "order": 4}, "earth_angle": "era"},
-                               epoch_utc="2021-05-09T12:00:00")
-    sol = P.perturb_from_unperturbed(ot, tr_p, "e1 g44", options=QUIET)
+def perturbed_e1(e1_g44_era):
+    """E1 OT 15 N (2 revolutions) with EGM96 4×4 and the Earth rotation angle switched on
+    (conftest), and the end game from it with probes 0.01 d apart."""
+    sol = e1_g44_era[0]
     opt = ft.MaximumOptions(probe_days=0.01, verbose=False)
     return sol, opt, ft.maximise_final_mass(sol, opt)
 

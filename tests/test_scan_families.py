@@ -66,22 +66,21 @@ def test_same_extremal_needs_both_the_mass_and_the_time_to_agree():
 
 
 @pytest.fixture(scope="module")
-def two_epochs():
+def two_epochs(e1_g44_era):
     """E1 OT 15 N (2 revolutions) with EGM96 4×4 on the Earth rotation angle, solved from the
-    unperturbed extremal at two departure epochs 6 h apart (the geopotential turns by 90°)."""
-    from spaceopt.indirect import chain
+    unperturbed extremal at two departure epochs 6 h apart (the geopotential turns by 90°); the
+    first is conftest's."""
     from spaceopt.studies import multirev, perturbed as P
 
     quiet = ContinuationOptions(verbose=False)
-    cfg = yaml.safe_load((ROOT / "config" / "studies" / "multirev.yaml").read_text())["multirev"]
-    tr = multirev.transfer_from_config(cfg, "e1")
-    ot = chain.solve_ot(chain.solve_lp(tr, quiet), 15.0, quiet)
-    pert = {"geopotential": {"degree": 4, "order": 4}, "earth_angle": "era"}
+    noon, ot = e1_g44_era
+    assert noon.transfer.epoch_utc == "2021-05-09T12:00:00"
     pc = {"numerics": {"tof_maximum": {"probe_days": 0.01}}, "cases": {"e1": {}}}
     out = {}
     for epoch in ("2021-05-09T12:00:00", "2021-05-09T18:00:00"):
-        tr_p = dataclasses.replace(tr, perturbations=pert, epoch_utc=epoch)
-        sol, _ = P.maximise_in_tof(P.perturb_from_unperturbed(ot, tr_p, epoch, options=quiet), pc, "e1", epoch)
+        start = noon if epoch == noon.transfer.epoch_utc else P.perturb_from_unperturbed(
+            ot, dataclasses.replace(noon.transfer, epoch_utc=epoch), epoch, options=quiet)
+        sol, _ = P.maximise_in_tof(start, pc, "e1", epoch)
         out[epoch] = (sol, multirev.scalars(sol, multirev.sample(sol, F.SAMPLES_PER_REV)))
     return pc, out
 

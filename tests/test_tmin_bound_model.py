@@ -45,9 +45,10 @@ def test_the_model_blend_of_the_tmin_ot_problem_ends_in_each_model():
 
 
 @pytest.fixture(scope="module")
-def j2_bound():
-    ot = chain.solve_ot(chain.solve_lp(TR_J2, perturbed=True), 15.0)
-    return tmin_from_ot.solve_tmin_from_ot(ot, tmin_from_ot.FromOtOptions(max_steps=6, verbose=False))
+def j2_bound(e1_j2_ot):
+    """The T_min → OT path followed back from the J2 OT extremal (conftest), cut after 6 steps."""
+    assert repr(e1_j2_ot.transfer) == repr(TR_J2)        # (== is False: thrust is nan)
+    return tmin_from_ot.solve_tmin_from_ot(e1_j2_ot, tmin_from_ot.FromOtOptions(max_steps=6, verbose=False))
 
 
 def test_a_bound_carried_to_another_force_model_is_a_transfer_of_that_model(j2_bound, tmp_path):
