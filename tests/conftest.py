@@ -16,11 +16,13 @@ sys.path.insert(0, str(ROOT / "workflow" / "scripts"))
 # order by test count had it (17th of 38), it left one worker running it alone at the end.
 LONGEST_FIRST = ("test_quick_reproduction.py",)
 
-# Files that start from the same perturbed E1 extremal (the session fixtures below) go to one
-# xdist worker together, so that it is solved once and its compiled programs are built once: run
-# on two workers at the same time, each file compiled them for itself.
-SHARED_EXTREMAL = {"test_exact_switching.py": "e1_j2", "test_tmin_bound_model.py": "e1_j2",
-                   "test_free_time.py": "e1_g44_era", "test_scan_families.py": "e1_g44_era"}
+# Files that start from the same perturbed E1 extremal (the session fixtures below), or that
+# compile the same programs, go to one xdist worker together, so that the extremal is solved once
+# and the programs are compiled once (the worker's traces, then the persistent cache): on two
+# workers at the same time each file compiled them for itself. test_cli's E9 check solves the
+# LP and OT under J2 with e1_j2_ot's programs (same layouts and step cap: measured, 3 programs).
+ONE_WORKER = {"test_exact_switching.py": "e1_j2", "test_tmin_bound_model.py": "e1_j2", "test_cli.py": "e1_j2",
+              "test_free_time.py": "e1_g44_era", "test_scan_families.py": "e1_g44_era"}
 EPOCH = "2021-05-09T12:00:00"
 
 
@@ -29,17 +31,17 @@ def pytest_collection_modifyitems(items):
 
 
 def pytest_xdist_make_scheduler(config, log):
-    """--dist loadfile with the files of one SHARED_EXTREMAL group as one unit of work."""
+    """--dist loadfile with the files of one ONE_WORKER group as one unit of work."""
     if config.getoption("dist") != "loadfile":
         return None
     from xdist.scheduler import LoadFileScheduling
 
-    class SharedExtremalScheduling(LoadFileScheduling):
+    class OneWorkerScheduling(LoadFileScheduling):
         def _split_scope(self, nodeid):
             path = super()._split_scope(nodeid)
-            return SHARED_EXTREMAL.get(Path(path).name, path)
+            return ONE_WORKER.get(Path(path).name, path)
 
-    return SharedExtremalScheduling(config, log)
+    return OneWorkerScheduling(config, log)
 
 
 def e1_transfer(**changes):
