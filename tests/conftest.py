@@ -30,6 +30,7 @@ def pytest_collection_modifyitems(items):
     items.sort(key=lambda item: item.path.name not in LONGEST_FIRST)
 
 
+@pytest.hookimpl(optionalhook=True)      # an xdist hook: pytest without xdist runs too
 def pytest_xdist_make_scheduler(config, log):
     """--dist loadfile with the files of one ONE_WORKER group as one unit of work."""
     if config.getoption("dist") != "loadfile":
