@@ -362,7 +362,7 @@ def shoot(sh, z, tau, prm, rtol, atol, sens_rtol, sens_atol, k=1):
     if k > 1:
         _, Phif, d_last, steps2, ok2 = column_threads.propagate(block, Phi0, k)
     else:
-        _, Phif, d_last, steps2, ok2 = block(Phi0, jnp.zeros(Phi0.shape[1]).at[-1].set(1.0))
+        _, Phif, d_last, steps2, ok2 = block(Phi0, None)       # the τ column last (pass 2's default)
     return (*_assemble(sh, z, tau, prm, p1["yf"], Phif, d_last, p1["d0"]), p1["steps"] + steps2,
             ok2 & (p1["status"] == DONE))
 
