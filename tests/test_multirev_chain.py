@@ -189,3 +189,25 @@ def test_a_path_cut_short_gives_an_upper_bound_whose_throttle_is_recorded(e1, tm
     assert check["final_position_vs_solver_km"] < 0.5 and abs(check["final_mass_error_kg"]) < 1e-4, check
     # always on: the replay also says how far a thrust changed by 1e-7 moves the end point
     assert check["thrust_probe_relative"] == verify.THRUST_PROBE and check["final_position_moved_by_thrust_probe_km"] > 0.0
+
+
+def test_the_step_cap_is_traced_and_fails_a_propagation_that_needs_more(e1):
+    """Shooting.max_steps is a traced value (.flow.StepCap): layouts that differ only in their cap
+    share one compiled program and give the same map to the bit, and a cap one step below what
+    the propagation needs fails it, as diffrax's static max_steps did."""
+    import dataclasses
+    from spaceopt.indirect import shooting
+    ot = e1["ot"]
+    z = jnp.asarray(ot.z)
+    full = shooting.shoot(ot.shooting, z, 1.0, ot.prm)
+    needed = int(full[3])
+    assert bool(shooting.final_state(ot.shooting, z, 1.0, ot.prm)[1])
+    compiled = (shooting._shoot_capped._cache_size(), shooting._final_state_capped._cache_size())
+    for cap, ok in ((needed, True), (needed - 1, False)):
+        capped = dataclasses.replace(ot.shooting, max_steps=cap)
+        f, J, _, steps, success = shooting.shoot(capped, z, 1.0, ot.prm)
+        assert bool(success) is ok and int(steps) == needed       # a failed solve stops at step cap + 1
+        assert bool(shooting.final_state(capped, z, 1.0, ot.prm)[1]) is ok      # the same steps
+        if ok:
+            assert np.array_equal(f, full[0]) and np.array_equal(J, full[1])
+    assert (shooting._shoot_capped._cache_size(), shooting._final_state_capped._cache_size()) == compiled

@@ -32,7 +32,8 @@ from ..errors import ConvergenceError
 from . import exact_switching, hamiltonians as hm
 from .continuation import (POLISH_FAILED, STEP_SIZES, ArclengthContinuation, ArclengthOptions,
                            Continuation, ContinuationOptions, failure_statistics)
-from .flow import Model, field as flow_field, model_blend_params, padded_samples, uniform_samples
+from .flow import (STEP_BOUND, Model, capped, field as flow_field, model_blend_params, padded_samples,
+                   uniform_samples)
 from .multiple_shooting import MultipleShooting, node_positions, start_nodes
 from .multiple_shooting import residual as multiple_residual, shoot as multiple_shoot
 from .shooting import Shooting, initial_state, residual, shoot
@@ -478,14 +479,14 @@ def dense(sol: Solution, samples_per_rev: int = 200):
     return np.asarray(Ks)[:n], np.asarray(ys)[:n]
 
 
-@partial(jax.jit, static_argnums=(0, 5, 6))
+@partial(jax.jit, static_argnums=(0, 5))
 def _dense(model, y0, K_f, prm, n, n_pad, max_steps, tau=1.0):
     """The trajectory on n uniform samples, padded to n_pad (:func:`.flow.padded_samples`)."""
     Ks = uniform_samples(K_f, n, n_pad)
     rhs = lambda K, y, args: flow_field(model, K, y, tau, args)
     out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, K_f, None, y0, args=prm,
-                              stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-13),
-                              saveat=diffrax.SaveAt(ts=Ks), max_steps=max_steps)
+                              stepsize_controller=capped(diffrax.PIDController(rtol=1e-12, atol=1e-13), max_steps),
+                              saveat=diffrax.SaveAt(ts=Ks), max_steps=STEP_BOUND)
     return Ks, out.ys
 
 
@@ -499,7 +500,7 @@ def lp_integrals(sol: Solution) -> dict:
             "tof_s": float(yf[hm.TIME]) * tr.tu}
 
 
-@partial(jax.jit, static_argnums=(0, 4))
+@partial(jax.jit, static_argnums=0)
 def _lp_integrals(model, y0, K_f, prm, max_steps):
     n = hm.N_STATE
 
@@ -512,6 +513,6 @@ def _lp_integrals(model, y0, K_f, prm, max_steps):
 
     out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, K_f, None,
                               jnp.concatenate([y0, jnp.zeros(2)]), args=prm,
-                              stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-13),
-                              max_steps=max_steps)
+                              stepsize_controller=capped(diffrax.PIDController(rtol=1e-12, atol=1e-13), max_steps),
+                              max_steps=STEP_BOUND)
     return out.ys[-1]

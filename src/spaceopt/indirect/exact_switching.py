@@ -58,7 +58,8 @@ import jax
 import jax.numpy as jnp
 
 from . import column_threads, hamiltonians as hm
-from .flow import _primal_rms, field, hamiltonian, ot_delta, padded_samples, params_at, uniform_samples
+from .flow import (STEP_BOUND, _primal_rms, capped, field, hamiltonian, ot_delta, padded_samples, params_at,
+                   step_control, uniform_samples)
 from .shooting import _start_jit, initial_state, terminal_residual, terminal_with_derivatives
 
 SEGMENT_STEPS = 32        # Dopri8 steps per segment of pass 1 (sizes its dense output)
@@ -276,8 +277,8 @@ def propagate_with_sensitivities(model, y0, Phi0, Kf, tau, prm, rtol, atol, max_
         K1 = Ks[i]                                   # K_f past the last switch
         sol = diffrax.diffeqsolve(
             diffrax.ODETerm(rhs), diffrax.Dopri8(), t0=K, t1=K1, dt0=None, y0=(y, Phi),
-            args=(tau, prm, delta), stepsize_controller=_controller(rtol, atol),
-            saveat=diffrax.SaveAt(t1=True), max_steps=max_steps, throw=False)
+            args=(tau, prm, delta), stepsize_controller=step_control(rtol, atol, max_steps),
+            saveat=diffrax.SaveAt(t1=True), max_steps=STEP_BOUND, throw=False)
         y, Phi = sol.ys[0][-1], sol.ys[1][-1]
         last = i >= n_switches
         Phi = jax.lax.cond(last, lambda: Phi, lambda: _saltation(model, K1, y, Phi, delta, tau, prm, tau_tangent))
@@ -297,12 +298,12 @@ def transversality(sh, z, tau, prm, delta):
 
 
 @partial(jax.jit, static_argnums=0)
-def _pass1(sh, z, tau, prm, rtol, atol):
+def _pass1(sh, z, tau, prm, rtol, atol, max_steps):
     """Pass 1 (:func:`switches`) from the unknowns z of the layout ``sh``: one compiled program
     per layout that the residual, y(K_f), the switch list, the Jacobian and the dense trajectory
     share (fused into each of them, pass 1 was compiled five times: 14 s each on E1 J2)."""
     y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
-    return switches(sh.model, y0, z[sh.kf_index], tau, prm, rtol, atol, sh.max_steps)
+    return switches(sh.model, y0, z[sh.kf_index], tau, prm, rtol, atol, max_steps)
 
 
 @partial(jax.jit, static_argnums=0)
@@ -315,12 +316,12 @@ def _residual_of(sh, z, tau, prm, p1):
 
 def residual(sh, z, tau, prm, rtol, atol):
     """f(z, τ) of the exact map, and the success flag (pass 1 only)."""
-    return _residual_of(sh, z, tau, prm, _pass1(sh, z, tau, prm, rtol, atol))
+    return _residual_of(sh, z, tau, prm, _pass1(sh, z, tau, prm, rtol, atol, sh.max_steps))
 
 
 def final_state(sh, z, tau, prm, rtol, atol):
     """y(K_f) of the exact map, and the success flag."""
-    p1 = _pass1(sh, z, tau, prm, rtol, atol)
+    p1 = _pass1(sh, z, tau, prm, rtol, atol, sh.max_steps)
     return p1["yf"], p1["status"] == DONE
 
 
@@ -343,7 +344,7 @@ def _assemble(sh, z, tau, prm, yf, Phif, d_last, d0):
     return f, J, ftau
 
 
-_pass2_block = jax.jit(propagate_with_sensitivities, static_argnums=(0, 8))
+_pass2_block = jax.jit(propagate_with_sensitivities, static_argnums=0)
 
 
 def shoot(sh, z, tau, prm, rtol, atol, sens_rtol, sens_atol, k=1):
@@ -353,7 +354,7 @@ def shoot(sh, z, tau, prm, rtol, atol, sens_rtol, sens_atol, k=1):
     integrates the sensitivities at (sens_rtol, sens_atol) (``Shooting.sensitivity_rtol``), with
     its columns split over ``k`` threads where k > 1 (.column_threads). Each pass is a compiled
     program of its own; under a JAX transformation they trace into one computation."""
-    p1 = _pass1(sh, z, tau, prm, rtol, atol)
+    p1 = _pass1(sh, z, tau, prm, rtol, atol, sh.max_steps)
     y0, Phi0 = _start_jit(sh, z, tau, prm)       # y(0), Φ(0) as on the smoothed map
 
     def block(Phi, tangent):
@@ -372,7 +373,7 @@ shoot_threaded = shoot     # .shooting.shoot's name for the map with k > 1 threa
 
 def switch_points(sh, z, tau, prm, rtol, atol):
     """Pass 1's switches of the unknowns z: (δ on the first arc, K_s array, count, status)."""
-    p1 = _pass1(sh, z, tau, prm, rtol, atol)
+    p1 = _pass1(sh, z, tau, prm, rtol, atol, sh.max_steps)
     return p1["d0"], p1["Ks"], p1["n_switches"], p1["status"]
 
 
@@ -382,12 +383,12 @@ def dense(sh, z, tau, prm, n, max_steps, rtol=1e-12, atol=1e-13):
     The switches of pass 1 (at the shooting tolerances) fix δ on each arc; one integration over
     [0, K_f] then reads δ by the switch count below K and steps exactly to every switch
     (diffrax ``jump_ts``), so no step straddles a discontinuity of the field."""
-    p1 = _pass1(sh, z, tau, prm, sh.rtol, sh.atol)
+    p1 = _pass1(sh, z, tau, prm, sh.rtol, sh.atol, sh.max_steps)
     Ks, ys = _dense_over_arcs(sh, z, tau, prm, p1["d0"], p1["Ks"], n, padded_samples(n), max_steps, rtol, atol)
     return Ks[:n], ys[:n]
 
 
-@partial(jax.jit, static_argnums=(0, 7, 8))
+@partial(jax.jit, static_argnums=(0, 7))
 def _dense_over_arcs(sh, z, tau, prm, d0, Ks_switch, n, n_pad, max_steps, rtol, atol):
     """:func:`dense`'s integration over the arcs of pass 1 (δ = d0 before the first switch), on n
     samples padded to n_pad (:func:`.flow.padded_samples`)."""
@@ -401,5 +402,6 @@ def _dense_over_arcs(sh, z, tau, prm, d0, Ks_switch, n, n_pad, max_steps, rtol, 
 
     controller = diffrax.ClipStepSizeController(diffrax.PIDController(rtol=rtol, atol=atol), jump_ts=Ks_switch)
     out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, z[kf], None, y0,
-                              stepsize_controller=controller, saveat=diffrax.SaveAt(ts=Ks), max_steps=max_steps)
+                              stepsize_controller=capped(controller, max_steps), saveat=diffrax.SaveAt(ts=Ks),
+                              max_steps=STEP_BOUND)
     return Ks, out.ys

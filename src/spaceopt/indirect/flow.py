@@ -41,6 +41,7 @@ import jax
 import jax.numpy as jnp
 
 from . import hamiltonians as hm
+from .transfer import STEP_BOUND
 
 
 def hamiltonian_field(H, K, y, n):
@@ -258,11 +259,63 @@ def _primal_rms(err):
     return jnp.sqrt(jnp.mean(y_err**2))
 
 
+# The step cap of a propagation is a traced value, not diffrax's static ``max_steps``: a static
+# cap is a constant of the compiled program, so each cap compiled programs of its own (a study's
+# step_cap and the default MAX_STEPS, each E8 revolution count), 10–20 s each with perturbations.
+# diffrax's loop is bounded by STEP_BOUND (.transfer), and StepCap ends the solve after ``cap`` steps.
+
+
+class StepCap(diffrax.AbstractAdaptiveStepSizeController):
+    """An adaptive controller that fails the solve (``RESULTS.max_steps_reached``) once it has
+    taken more than ``cap`` steps, accepted and rejected, as diffrax's ``max_steps`` does, with
+    ``cap`` a traced integer. Written here because diffrax has no dynamic step limit; every step
+    decision is the ``inner`` controller's, so the solution is the same to the bit."""
+    inner: diffrax.AbstractAdaptiveStepSizeController
+    cap: jax.Array
+
+    @property
+    def rtol(self):
+        return self.inner.rtol
+
+    @property
+    def atol(self):
+        return self.inner.atol
+
+    @property
+    def norm(self):
+        return self.inner.norm
+
+    def wrap(self, direction):
+        return StepCap(self.inner.wrap(direction), self.cap)
+
+    def init(self, terms, t0, t1, y0, dt0, args, func, error_order):
+        t_next, state = self.inner.init(terms, t0, t1, y0, dt0, args, func, error_order)
+        return t_next, (state, jnp.asarray(0, dtype=jnp.int32))
+
+    def adapt_step_size(self, t0, t1, y0, y1_candidate, args, y_error, error_order, controller_state):
+        state, steps = controller_state
+        keep, t_prev, t_next, jump, state, result = self.inner.adapt_step_size(
+            t0, t1, y0, y1_candidate, args, y_error, error_order, state)
+        steps = steps + 1
+        result = diffrax.RESULTS.where(steps > self.cap, diffrax.RESULTS.max_steps_reached, result)
+        return keep, t_prev, t_next, jump, (state, steps), result
+
+
+def capped(controller, max_steps):
+    """``controller`` with the step cap ``max_steps`` (traced; at most STEP_BOUND)."""
+    return StepCap(controller, jnp.asarray(max_steps, dtype=jnp.int32))
+
+
+def step_control(rtol, atol, max_steps):
+    """The PID controller of the shooting propagations (error norm on y alone), capped."""
+    return capped(diffrax.PIDController(rtol=rtol, atol=atol, norm=_primal_rms), max_steps)
+
+
 def _solve(rhs, y0, K0, Kf, args, rtol, atol, max_steps, saveat):
     return diffrax.diffeqsolve(
         diffrax.ODETerm(rhs), diffrax.Dopri8(), t0=K0, t1=Kf, dt0=None, y0=y0, args=args,
-        stepsize_controller=diffrax.PIDController(rtol=rtol, atol=atol, norm=_primal_rms),
-        saveat=saveat, max_steps=max_steps, throw=False)
+        stepsize_controller=step_control(rtol, atol, max_steps), saveat=saveat, max_steps=STEP_BOUND,
+        throw=False)
 
 
 def propagate(model: Model, y0, Kf, tau, prm, rtol, atol, max_steps, K0=0.0):

@@ -38,7 +38,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ConvergenceError
-from .flow import field, params_at, propagate, propagate_with_sensitivities
+from .flow import STEP_BOUND, capped, field, params_at, propagate, propagate_with_sensitivities
 from .shooting import (Shooting, initial_state, start_with_sensitivities, terminal_residual,
                        terminal_with_derivatives, transversality, transversality_with_derivatives)
 
@@ -82,13 +82,13 @@ def start_nodes(ms: MultipleShooting, z, tau, prm, nodes):
     return np.concatenate([np.asarray(z, float), (weights * ys).ravel()]), weights
 
 
-@partial(jax.jit, static_argnums=(0, 7))
+@partial(jax.jit, static_argnums=0)
 def _through_nodes(model, y0, nodes, tau, prm, rtol, atol, max_steps):
     out = diffrax.diffeqsolve(
         diffrax.ODETerm(lambda K, y, args: field(model, K, y, tau, args)), diffrax.Dopri8(),
         0.0, nodes[-1], None, y0, args=prm,
-        stepsize_controller=diffrax.PIDController(rtol=rtol, atol=atol),
-        saveat=diffrax.SaveAt(ts=nodes), max_steps=max_steps, throw=False)
+        stepsize_controller=capped(diffrax.PIDController(rtol=rtol, atol=atol), max_steps),
+        saveat=diffrax.SaveAt(ts=nodes), max_steps=STEP_BOUND, throw=False)
     return out.ys, out.result == diffrax.RESULTS.successful
 
 
@@ -96,14 +96,14 @@ def shoot(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol=None, atol=Non
     """F(Z, τ), ∂F/∂Z, ∂F/∂τ, integration steps (all arcs), success flag."""
     sh = ms.single
     return _shoot(ms, Z, tau, prm, nodes, weights, sh.rtol if rtol is None else rtol,
-                  sh.atol if atol is None else atol)
+                  sh.atol if atol is None else atol, sh.max_steps)
 
 
 def residual(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol=None, atol=None):
     """F(Z, τ) of :func:`shoot` without its derivatives (residual, success flag)."""
     sh = ms.single
     return _residual(ms, Z, tau, prm, nodes, weights, sh.rtol if rtol is None else rtol,
-                     sh.atol if atol is None else atol)
+                     sh.atol if atol is None else atol, sh.max_steps)
 
 
 def _unpack(ms: MultipleShooting, Z, nodes, weights):
@@ -115,18 +115,18 @@ def _unpack(ms: MultipleShooting, Z, nodes, weights):
 
 
 @partial(jax.jit, static_argnums=0)
-def _residual(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol, atol):
+def _residual(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol, atol, max_steps):
     sh = ms.single
     z, Kf, ys, K0, K1 = _unpack(ms, Z, nodes, weights)
     Y0 = jnp.concatenate([initial_state(sh, z, params_at(sh.model, prm, tau))[None], ys])
-    yend, _, ok = jax.vmap(lambda y, a, b: propagate(sh.model, y, b, tau, prm, rtol, atol, sh.max_steps, K0=a))(Y0, K0, K1)
+    yend, _, ok = jax.vmap(lambda y, a, b: propagate(sh.model, y, b, tau, prm, rtol, atol, max_steps, K0=a))(Y0, K0, K1)
     r_term = terminal_residual(sh, yend[-1], Kf, params_at(sh.model, prm, tau), tau)
     cont = (weights * (yend[:-1] - ys)).ravel()
     return jnp.concatenate([jnp.atleast_1d(transversality(sh, z, tau, prm)), cont, r_term]), jnp.all(ok)
 
 
 @partial(jax.jit, static_argnums=0)
-def _shoot(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol, atol):
+def _shoot(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol, atol, max_steps):
     sh, M, w = ms.single, ms.arcs, ms.width
     s, kf = sh.size, sh.kf_index
     z, Kf, ys, K0, K1 = _unpack(ms, Z, nodes, weights)
@@ -137,7 +137,7 @@ def _shoot(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol, atol):
     Y0 = jnp.concatenate([y0[None], ys])
     Phi0 = jnp.concatenate([first[None], inner])
     prop = jax.vmap(lambda y, P, a, b: propagate_with_sensitivities(
-        sh.model, y, P, b, tau, prm, rtol, atol, sh.max_steps, K0=a))
+        sh.model, y, P, b, tau, prm, rtol, atol, max_steps, K0=a))
     yend, Phi, nsteps, ok = prop(Y0, Phi0, K0, K1)
 
     # continuity rows: arc j = 0 … M−2 ends at node j+1 (columns: the first arc's free unknowns

@@ -44,7 +44,7 @@ class Shooting:
     free_costates: tuple          # indices into λ that are unknowns
     rtol: float = dc_field(default=1e-11, compare=False)   # end-point tolerances; passed to
     atol: float = dc_field(default=1e-12, compare=False)   # shoot() as traced values (no recompile)
-    max_steps: int = MAX_STEPS
+    max_steps: int = dc_field(default=MAX_STEPS, compare=False)   # step cap, traced too (.flow.StepCap)
     path_rtol: float = dc_field(default=PATH_RTOL, compare=False)   # rtol while a path is followed
     fixed_time: bool = False      # t(K_f) = t_f (1.1.11) replaces p_t(K_f) = 0; p_t is then an unknown
     path_arcs: int = dc_field(default=1, compare=False)    # > 1: paths followed by multiple
@@ -164,10 +164,14 @@ def final_state(sh: Shooting, z, tau, prm):
     return _map(sh, "final_state")(sh, z, tau, prm, sh.rtol, sh.atol)
 
 
-@partial(jax.jit, static_argnums=0)
 def _final_state(sh: Shooting, z, tau, prm, rtol, atol):
+    return _final_state_capped(sh, z, tau, prm, rtol, atol, sh.max_steps)
+
+
+@partial(jax.jit, static_argnums=0)
+def _final_state_capped(sh: Shooting, z, tau, prm, rtol, atol, max_steps):
     y0 = initial_state(sh, z, params_at(sh.model, prm, tau))
-    yf, _, ok = propagate(sh.model, y0, z[sh.kf_index], tau, prm, rtol, atol, sh.max_steps)
+    yf, _, ok = propagate(sh.model, y0, z[sh.kf_index], tau, prm, rtol, atol, max_steps)
     return yf, ok
 
 
@@ -233,17 +237,21 @@ def _assemble(sh: Shooting, z, tau, prm, yf, Phif):
     return f, J, ftau
 
 
-@partial(jax.jit, static_argnums=0)
 def _shoot(sh: Shooting, z, tau, prm, rtol, atol):
+    return _shoot_capped(sh, z, tau, prm, rtol, atol, sh.max_steps)
+
+
+@partial(jax.jit, static_argnums=0)
+def _shoot_capped(sh: Shooting, z, tau, prm, rtol, atol, max_steps):
     y0, Phi0 = _start(sh, z, tau, prm)
     yf, Phif, nsteps, ok = propagate_with_sensitivities(
-        sh.model, y0, Phi0, z[sh.kf_index], tau, prm, rtol, atol, sh.max_steps)
+        sh.model, y0, Phi0, z[sh.kf_index], tau, prm, rtol, atol, max_steps)
     return (*_assemble(sh, z, tau, prm, yf, Phif), nsteps, ok)
 
 
 _start_jit = jax.jit(_start, static_argnums=0)
 _assemble_jit = jax.jit(_assemble, static_argnums=0)
-_propagate_block = jax.jit(propagate_with_sensitivities, static_argnums=(0, 8))
+_propagate_block = jax.jit(propagate_with_sensitivities, static_argnums=0)
 
 
 def _shoot_threaded(sh: Shooting, z, tau, prm, rtol, atol, k):

@@ -19,13 +19,15 @@ from ..errors import ConfigError
 
 
 MAX_STEPS = 400_000     # integration steps per propagation unless a study caps them lower
+STEP_BOUND = 1 << 20    # the highest cap: diffrax's static loop bound (.flow.StepCap takes the cap traced)
 PATH_RTOL = 1e-9        # integration rtol while a homotopy path is followed (end points: Shooting.rtol)
 
 
 def step_cap(n_rev: float, per_rev: float, minimum: int) -> int:
     """An integration-step cap that grows with the revolutions, rounded up to a multiple of
-    10 000 (few compiled variants). A propagation that reaches it fails, so a degenerate
-    trajectory in a continuation step is rejected after this many steps rather than MAX_STEPS."""
+    10 000. A propagation that reaches it fails, so a degenerate trajectory in a continuation
+    step is rejected after this many steps rather than MAX_STEPS. The cap is a traced value of
+    the compiled programs (.flow.StepCap): every cap shares them."""
     raw = max(int(minimum), int(per_rev * n_rev))
     return int(math.ceil(raw / 10_000) * 10_000)
 
@@ -91,6 +93,9 @@ class Transfer:
         if self.sensitivity_rtol is not None and not (
                 isinstance(self.sensitivity_rtol, (int, float)) and 0 < self.sensitivity_rtol < 1e-3):
             raise ConfigError("sensitivity_rtol", self.sensitivity_rtol, "must be a relative tolerance in (0, 1e-3)")
+        if not (isinstance(self.max_steps, int) and not isinstance(self.max_steps, bool)
+                and 1 <= self.max_steps <= STEP_BOUND):
+            raise ConfigError("max_steps", self.max_steps, f"must be a whole number of steps in [1, {STEP_BOUND}]")
         if not (isinstance(self.path_arcs, int) and not isinstance(self.path_arcs, bool) and self.path_arcs >= 1):
             raise ConfigError("path_arcs", self.path_arcs, "must be a whole number of shooting arcs >= 1")
         if not math.isnan(self.thrust) and not (math.isfinite(self.thrust) and self.thrust > 0):
