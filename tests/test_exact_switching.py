@@ -102,7 +102,8 @@ def test_the_columns_propagated_in_threads_give_the_same_map(smoothed, monkeypat
     """SPACEOPT_THREADS > 1 (.column_threads): Φ's columns in blocks, one thread each (3 blocks
     of 9 columns; 2 with a zero column padding), on both maps, at τ = 0.5 of the perturbation
     switch where the τ column is not trivial: f, ∂f/∂z, ∂f/∂τ and the steps of one computation;
-    under jax.jit the single computation; a thread count that is not a positive integer refused."""
+    traced (under jax.jit), the program of one thread; a thread count that is not a positive
+    integer refused."""
     ot, sh = smoothed
     z = jnp.asarray(ot.z)
     for layout in (ot.shooting, sh):
@@ -115,11 +116,12 @@ def test_the_columns_propagated_in_threads_give_the_same_map(smoothed, monkeypat
         np.testing.assert_allclose(split[0], one[0], rtol=0, atol=1e-14)
         for a, b in zip(split[1:3], one[1:3]):
             np.testing.assert_allclose(a, b, rtol=0, atol=1e-12 * float(jnp.abs(b).max()))
-        # under a transformation the map stays one computation (the data baked in as constants
-        # compile to other round-off, and the step sequence follows it: J to its integration error)
-        traced = jax.jit(lambda zz, layout=layout: shoot(layout, zz, 0.5, ot.prm))(z)
-        assert bool(traced[4]) and float(jnp.abs(traced[0] - one[0]).max()) < 1e-9
-        assert float(jnp.linalg.norm(traced[1] - one[1]) / jnp.linalg.norm(one[1])) < 1e-5
+        # under a transformation the map stays one computation: it traces to the program of one
+        # thread (compiling that program again would only repeat it)
+        program = lambda layout=layout: str(jax.make_jaxpr(lambda zz: shoot(layout, zz, 0.5, ot.prm))(z))  # noqa: E731
+        traced = program()
+        monkeypatch.setenv("SPACEOPT_THREADS", "1")
+        assert traced == program() and "while" in traced
     monkeypatch.setenv("SPACEOPT_THREADS", "two")
     with pytest.raises(ConfigError, match="SPACEOPT_THREADS='two': expected a positive integer"):
         shoot(sh, z, 1.0, ot.prm)
