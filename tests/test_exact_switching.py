@@ -36,6 +36,13 @@ def exact(smoothed):
     return chain.to_exact(smoothed[0])
 
 
+@pytest.fixture(scope="module")
+def unperturbed_exact():
+    """The exact extremal of TR's problem without perturbations (LP → OT 15 N → chain.to_exact)."""
+    tr_u = dataclasses.replace(TR, perturbations=None, epoch_utc=None)
+    return chain.to_exact(chain.solve_ot(chain.solve_lp(tr_u), 15.0))
+
+
 def _switching_along(ot):
     """S on the smoothed extremal's dense trajectory, 400 samples per revolution: (K, S)."""
     Ks, ys = chain.dense(ot, samples_per_rev=400)
@@ -45,8 +52,7 @@ def _switching_along(ot):
 
 def test_the_switches_are_the_sign_changes_of_the_smoothed_extremal(smoothed):
     """Pass 1 finds one switch per sign change of S along the smoothed extremal (sampled at 400
-    points per revolution), each within one sample interval of it, and it does not depend on
-    how the arcs are cut into segments."""
+    points per revolution), each within one sample interval of it."""
     ot, sh = smoothed
     z = jnp.asarray(ot.z)
     d0, Ks, n_sw, status = X.switch_points(sh, z, 1.0, ot.prm, sh.rtol, sh.atol)
@@ -57,15 +63,24 @@ def test_the_switches_are_the_sign_changes_of_the_smoothed_extremal(smoothed):
     dK = K[1] - K[0]
     np.testing.assert_array_less(np.abs(np.asarray(Ks[:int(n_sw)]) - K[changes] - dK / 2), dK)
     assert float(d0) == float(S[0] > 0)
-    y0 = initial_state(sh, z, ot.prm)
-    cut = X.switches(sh.model, y0, z[sh.kf_index], 1.0, ot.prm, sh.rtol, sh.atol, sh.max_steps, segment_steps=3)
-    assert int(cut["n_switches"]) == int(n_sw)
-    np.testing.assert_allclose(cut["Ks"], Ks, rtol=0, atol=1e-9)
     # at a loose tolerance the stepped state at a switch misses S = 0 by more than S_NOISE (1.8e-9
     # at rtol 1e-8): the next arc must not stop on it
     _, Ks_loose, n_loose, status = X.switch_points(sh, z, 1.0, ot.prm, 1e-7, 1e-8)
     assert X.STATUS[int(status)] == "done" and int(n_loose) == int(n_sw)
     np.testing.assert_allclose(Ks_loose[:int(n_sw)], Ks[:int(n_sw)], rtol=0, atol=1e-4)
+
+
+def test_the_switches_do_not_depend_on_how_the_arcs_are_cut_into_segments(unperturbed_exact):
+    """Pass 1 in segments of 3 steps finds the switches of its default segments (on the
+    unperturbed extremal: a program of its own for the segment length, compiled in seconds)."""
+    ex = unperturbed_exact
+    sh, z = ex.shooting, jnp.asarray(ex.z)
+    _, Ks, n_sw, status = X.switch_points(sh, z, 1.0, ex.prm, sh.rtol, sh.atol)
+    assert X.STATUS[int(status)] == "done" and int(n_sw) >= 4
+    y0 = initial_state(sh, z, ex.prm)
+    cut = X.switches(sh.model, y0, z[sh.kf_index], 1.0, ex.prm, sh.rtol, sh.atol, sh.max_steps, segment_steps=3)
+    assert int(cut["n_switches"]) == int(n_sw)
+    np.testing.assert_allclose(cut["Ks"], Ks, rtol=0, atol=1e-9)
 
 
 def test_the_jacobian_is_the_derivative_of_the_exact_residual(smoothed):
@@ -174,13 +189,12 @@ def test_the_exact_layout_is_refused_where_it_is_undefined():
         Shooting(Model("ot", "eps"), (0, 1), switching="bang")
 
 
-def test_perturbations_switched_on_and_changed_on_the_exact_map(exact):
+def test_perturbations_switched_on_and_changed_on_the_exact_map(exact, unperturbed_exact):
     """studies.perturbed.perturb_from_unperturbed from an exact unperturbed extremal: J2 switched
     on by τ on the exact map lands on the exact J2 extremal that Newton reaches from the smoothed
     J2 one; chain.continue_in_model then moves it to 4×4 on the exact map."""
     from spaceopt.studies import perturbed as P
-    tr_u = dataclasses.replace(TR, perturbations=None, epoch_utc=None)
-    unperturbed = chain.to_exact(chain.solve_ot(chain.solve_lp(tr_u), 15.0))
+    unperturbed = unperturbed_exact
     j2 = P.perturb_from_unperturbed(unperturbed, TR, "j2 on", path="tau")
     assert j2.shooting.switching == "exact" and j2.shooting.model.perturbed
     np.testing.assert_allclose(j2.z, exact.z, rtol=0, atol=1e-8)
