@@ -83,6 +83,20 @@ def test_unknown_perturbation_model_and_body():
         build_model({"third_bodies": ["mars"]}, "2021-05-09T12:00:00")
 
 
+@pytest.mark.parametrize("value", [0, 2_000_000, 1.5e5])
+def test_a_step_cap_outside_the_compiled_bound_is_one_line(value):
+    """Transfer.max_steps is the traced cap of every propagation (.flow.StepCap), at most the
+    static loop bound STEP_BOUND of the compiled programs: a cap above it is refused, not cut."""
+    import dataclasses
+    from spaceopt.indirect.transfer import STEP_BOUND, Orbit, Transfer
+    tr = Transfer(Orbit(36621e3, 0.812375413, 7, 0, 178), Orbit(42164e3, 0, 0), 300, 2, 1000, 1520)
+    assert dataclasses.replace(tr, max_steps=STEP_BOUND).max_steps == STEP_BOUND
+    with pytest.raises(ConfigError) as info:
+        dataclasses.replace(tr, max_steps=value)
+    msg = str(info.value)
+    assert "\n" not in msg and msg.startswith(f"max_steps={value!r}") and str(STEP_BOUND) in msg, msg
+
+
 def test_date_outside_the_ephemeris():
     from spaceopt.ephemeris import ChebyshevEphemeris, utc_to_tdb_seconds
     eph = ChebyshevEphemeris.from_de405("2021-05-01T00:00:00", "2021-05-20T00:00:00", "tiny")
