@@ -211,3 +211,13 @@ def test_the_step_cap_is_traced_and_fails_a_propagation_that_needs_more(e1):
         if ok:
             assert np.array_equal(f, full[0]) and np.array_equal(J, full[1])
     assert (shooting._shoot_capped._cache_size(), shooting._final_state_capped._cache_size()) == compiled
+    # the re-propagations of a solution return diffrax's flag (no callback in the program, which
+    # JAX's persistent cache would refuse) and fail with a diagnosis, not from inside XLA
+    from spaceopt.errors import ConvergenceError
+    for sol, redo in ((e1["ot"], lambda s: chain.dense(s, samples_per_rev=50)), (e1["lp"], chain.lp_integrals)):
+        starved = dataclasses.replace(sol, shooting=dataclasses.replace(sol.shooting, max_steps=10))
+        with pytest.raises(ConvergenceError, match="the propagation failed .step cap 10"):
+            redo(starved)
+    lp = e1["lp"]
+    y0 = shooting.initial_state(lp.shooting, jnp.asarray(lp.z), lp.prm)
+    assert "callback" not in chain._lp_integrals.lower(lp.shooting.model, y0, lp.K_f, lp.prm, 10).as_text()

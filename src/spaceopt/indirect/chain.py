@@ -33,7 +33,7 @@ from . import exact_switching, hamiltonians as hm
 from .continuation import (POLISH_FAILED, STEP_SIZES, ArclengthContinuation, ArclengthOptions,
                            Continuation, ContinuationOptions, failure_statistics)
 from .flow import (STEP_BOUND, Model, capped, field as flow_field, model_blend_params, padded_samples,
-                   uniform_samples)
+                   require_success, uniform_samples)
 from .multiple_shooting import MultipleShooting, node_positions, start_nodes
 from .multiple_shooting import residual as multiple_residual, shoot as multiple_shoot
 from .shooting import Shooting, initial_state, residual, shoot
@@ -475,7 +475,9 @@ def dense(sol: Solution, samples_per_rev: int = 200):
         Ks, ys = exact_switching.dense(sol.shooting, jnp.asarray(sol.z), sol.tau, sol.prm, n, sol.shooting.max_steps)
         return np.asarray(Ks), np.asarray(ys)
     y0 = initial_state(sol.shooting, jnp.asarray(sol.z), sol.prm)
-    Ks, ys = _dense(final_model(sol), y0, sol.K_f, sol.prm, n, padded_samples(n), sol.shooting.max_steps, sol.tau)
+    Ks, ys, ok = _dense(final_model(sol), y0, sol.K_f, sol.prm, n, padded_samples(n), sol.shooting.max_steps,
+                        sol.tau)
+    require_success(ok, "dense output", sol.shooting.max_steps)
     return np.asarray(Ks)[:n], np.asarray(ys)[:n]
 
 
@@ -486,8 +488,8 @@ def _dense(model, y0, K_f, prm, n, n_pad, max_steps, tau=1.0):
     rhs = lambda K, y, args: flow_field(model, K, y, tau, args)
     out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, K_f, None, y0, args=prm,
                               stepsize_controller=capped(diffrax.PIDController(rtol=1e-12, atol=1e-13), max_steps),
-                              saveat=diffrax.SaveAt(ts=Ks), max_steps=STEP_BOUND)
-    return Ks, out.ys
+                              saveat=diffrax.SaveAt(ts=Ks), max_steps=STEP_BOUND, throw=False)
+    return Ks, out.ys, out.result == diffrax.RESULTS.successful
 
 
 def lp_integrals(sol: Solution) -> dict:
@@ -495,7 +497,9 @@ def lp_integrals(sol: Solution) -> dict:
     field the solution was solved with (perturbed or not)."""
     tr = sol.transfer
     y0 = initial_state(sol.shooting, jnp.asarray(sol.z), sol.prm)
-    yf = np.asarray(_lp_integrals(sol.shooting.model, y0, sol.K_f, sol.prm, sol.shooting.max_steps))
+    yf, ok = _lp_integrals(sol.shooting.model, y0, sol.K_f, sol.prm, sol.shooting.max_steps)
+    require_success(ok, "LP integrals", sol.shooting.max_steps)
+    yf = np.asarray(yf)
     return {"J_LP_m2s3": float(yf[-2]) * tr.du**2 / tr.tu**3, "dv_m_s": float(yf[-1]) * tr.vu,
             "tof_s": float(yf[hm.TIME]) * tr.tu}
 
@@ -514,5 +518,5 @@ def _lp_integrals(model, y0, K_f, prm, max_steps):
     out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, K_f, None,
                               jnp.concatenate([y0, jnp.zeros(2)]), args=prm,
                               stepsize_controller=capped(diffrax.PIDController(rtol=1e-12, atol=1e-13), max_steps),
-                              max_steps=STEP_BOUND)
-    return out.ys[-1]
+                              max_steps=STEP_BOUND, throw=False)
+    return out.ys[-1], out.result == diffrax.RESULTS.successful

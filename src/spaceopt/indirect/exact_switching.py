@@ -59,7 +59,7 @@ import jax.numpy as jnp
 
 from . import column_threads, hamiltonians as hm
 from .flow import (STEP_BOUND, _primal_rms, capped, field, hamiltonian, ot_delta, padded_samples, params_at,
-                   step_control, uniform_samples)
+                   require_success, step_control, uniform_samples)
 from .shooting import _start_jit, initial_state, terminal_residual, terminal_with_derivatives
 
 SEGMENT_STEPS = 32        # Dopri8 steps per segment of pass 1 (sizes its dense output)
@@ -384,7 +384,8 @@ def dense(sh, z, tau, prm, n, max_steps, rtol=1e-12, atol=1e-13):
     [0, K_f] then reads δ by the switch count below K and steps exactly to every switch
     (diffrax ``jump_ts``), so no step straddles a discontinuity of the field."""
     p1 = _pass1(sh, z, tau, prm, sh.rtol, sh.atol, sh.max_steps)
-    Ks, ys = _dense_over_arcs(sh, z, tau, prm, p1["d0"], p1["Ks"], n, padded_samples(n), max_steps, rtol, atol)
+    Ks, ys, ok = _dense_over_arcs(sh, z, tau, prm, p1["d0"], p1["Ks"], n, padded_samples(n), max_steps, rtol, atol)
+    require_success(ok, "dense output", max_steps)
     return Ks[:n], ys[:n]
 
 
@@ -403,5 +404,5 @@ def _dense_over_arcs(sh, z, tau, prm, d0, Ks_switch, n, n_pad, max_steps, rtol, 
     controller = diffrax.ClipStepSizeController(diffrax.PIDController(rtol=rtol, atol=atol), jump_ts=Ks_switch)
     out = diffrax.diffeqsolve(diffrax.ODETerm(rhs), diffrax.Dopri8(), 0.0, z[kf], None, y0,
                               stepsize_controller=capped(controller, max_steps), saveat=diffrax.SaveAt(ts=Ks),
-                              max_steps=STEP_BOUND)
-    return Ks, out.ys
+                              max_steps=STEP_BOUND, throw=False)
+    return Ks, out.ys, out.result == diffrax.RESULTS.successful

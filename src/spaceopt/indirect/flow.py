@@ -40,6 +40,7 @@ import diffrax
 import jax
 import jax.numpy as jnp
 
+from ..errors import ConvergenceError
 from . import hamiltonians as hm
 from .transfer import STEP_BOUND
 
@@ -309,6 +310,18 @@ def capped(controller, max_steps):
 def step_control(rtol, atol, max_steps):
     """The PID controller of the shooting propagations (error norm on y alone), capped."""
     return capped(diffrax.PIDController(rtol=rtol, atol=atol, norm=_primal_rms), max_steps)
+
+
+def require_success(ok, what: str, max_steps) -> None:
+    """Raise ConvergenceError where the re-propagation of a solution (dense output, integrals)
+    failed. Those programs return diffrax's success flag (``throw=False``) instead of raising
+    inside: diffrax's ``throw`` puts a Python callback in the program, and JAX writes no program
+    with callbacks to its persistent compilation cache, so each process compiled it again. (The
+    dense programs keep one callback: diffrax checks their traced save times ``SaveAt(ts)``.)"""
+    if not bool(ok):
+        raise ConvergenceError(f"{what}: the propagation failed (step cap {int(max_steps)} reached or a "
+                               "non-finite state)", {"reason": f"{what} propagation failed",
+                                                     "max_steps": int(max_steps)})
 
 
 def _solve(rhs, y0, K0, Kf, args, rtol, atol, max_steps, saveat):
