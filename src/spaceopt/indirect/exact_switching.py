@@ -58,7 +58,7 @@ import jax
 import jax.numpy as jnp
 
 from . import column_threads, hamiltonians as hm
-from .flow import (STEP_BOUND, _primal_rms, capped, field, hamiltonian, ot_delta, padded_samples, params_at,
+from .flow import (STEP_BOUND, capped, field, hamiltonian, ot_delta, padded_samples, params_at, primal_control,
                    require_success, step_control, uniform_samples)
 from .shooting import _start_jit, initial_state, terminal_residual, terminal_with_derivatives
 
@@ -98,10 +98,6 @@ def throttle_at(model, K, y, tau, prm):
     return jax.lax.stop_gradient(jnp.where(switching(model, K, y, tau, prm) > 0, 1.0, 0.0))
 
 
-def _controller(rtol, atol):
-    return diffrax.PIDController(rtol=rtol, atol=atol, norm=_primal_rms)
-
-
 def _arc_rhs(model):
     return lambda K, y, a: field(model, K, y, a[0], a[1], delta=a[2])
 
@@ -113,7 +109,7 @@ def _segment(model, K, Kf, y, delta, noise, tau, prm, rtol, atol, segment_steps)
         return (2.0 * args[2] - 1.0) * switching(model, t, yy, args[0], args[1]) < -args[3]
     return diffrax.diffeqsolve(
         diffrax.ODETerm(_arc_rhs(model)), diffrax.Dopri8(), t0=K, t1=Kf, dt0=None, y0=y,
-        args=(tau, prm, delta, noise), stepsize_controller=_controller(rtol, atol),
+        args=(tau, prm, delta, noise), stepsize_controller=primal_control(rtol, atol),
         saveat=diffrax.SaveAt(t1=True, dense=True), max_steps=segment_steps, throw=False,
         event=diffrax.Event(wrong_side))
 
@@ -207,7 +203,7 @@ def _locate(model, sol, Ka, Kb, delta, tau, prm, rtol, atol):
     tj = ts[jnp.maximum(jnp.searchsorted(ts, Ks, side="right") - 1, 0)]
     out = diffrax.diffeqsolve(
         diffrax.ODETerm(_arc_rhs(model)), diffrax.Dopri8(), t0=tj, t1=Ks, dt0=None,
-        y0=sol.evaluate(tj), args=(tau, prm, delta), stepsize_controller=_controller(rtol, atol),
+        y0=sol.evaluate(tj), args=(tau, prm, delta), stepsize_controller=primal_control(rtol, atol),
         saveat=diffrax.SaveAt(t1=True), max_steps=RESTEP_STEPS, throw=False)
     return Ks, out.ys[-1], out.stats["num_steps"]
 

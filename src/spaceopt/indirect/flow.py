@@ -307,9 +307,14 @@ def capped(controller, max_steps):
     return StepCap(controller, jnp.asarray(max_steps, dtype=jnp.int32))
 
 
+def primal_control(rtol, atol):
+    """The PID controller of the shooting propagations: its error norm is that of y alone."""
+    return diffrax.PIDController(rtol=rtol, atol=atol, norm=_primal_rms)
+
+
 def step_control(rtol, atol, max_steps):
-    """The PID controller of the shooting propagations (error norm on y alone), capped."""
-    return capped(diffrax.PIDController(rtol=rtol, atol=atol, norm=_primal_rms), max_steps)
+    """:func:`primal_control` with the step cap ``max_steps``."""
+    return capped(primal_control(rtol, atol), max_steps)
 
 
 def require_success(ok, what: str, max_steps) -> None:
