@@ -58,8 +58,8 @@ import jax
 import jax.numpy as jnp
 
 from . import column_threads, hamiltonians as hm
-from .flow import (STEP_BOUND, capped, field, hamiltonian, ot_delta, padded_samples, params_at, primal_control,
-                   require_success, step_control, uniform_samples)
+from .flow import (STEP_BOUND, capped, field, field_with_tangents, hamiltonian, ot_delta, padded_samples, params_at,
+                   primal_control, require_success, step_control, uniform_samples)
 from .shooting import _start_jit, initial_state, terminal_residual, terminal_with_derivatives
 
 SEGMENT_STEPS = 32        # Dopri8 steps per segment of pass 1 (sizes its dense output)
@@ -265,8 +265,8 @@ def propagate_with_sensitivities(model, y0, Phi0, Kf, tau, prm, rtol, atol, max_
         tau_tangent = jnp.zeros(Phi0.shape[1]).at[-1].set(1.0)
 
     def rhs(K, Y, a):
-        gy, lin = jax.linearize(lambda yy, tt: field(model, K, yy, tt, a[1], delta=a[2]), Y[0], a[0])
-        return gy, jax.vmap(lin, in_axes=(1, 0), out_axes=1)(Y[1], tau_tangent)
+        return field_with_tangents(lambda yy, tt: field(model, K, yy, tt, a[1], delta=a[2]), Y[0], a[0], Y[1],
+                                   tau_tangent)
 
     def arc(c):
         i, K, y, Phi, delta, steps, ok = c
