@@ -37,7 +37,7 @@ from .flow import (STEP_BOUND, Model, capped, field as flow_field, model_blend_p
 from .multiple_shooting import MultipleShooting, node_positions, start_nodes
 from .multiple_shooting import residual as multiple_residual, shoot as multiple_shoot
 from .shooting import Shooting, initial_state, residual, shoot
-from .transfer import Transfer
+from .transfer import Transfer, datum
 
 ORBIT_COSTATES = (hm.P, hm.EX, hm.EY, hm.IX, hm.IY, hm.LK)
 
@@ -237,7 +237,7 @@ def blend_reference(lp: Solution) -> float:
 
 def solve_tmin(lp: Solution, options=None, label="tmin") -> Solution:
     tr = lp.transfer
-    prm = {**tr.params(), "blend_ref": jnp.asarray(blend_reference(lp))}
+    prm = {**tr.params(), "blend_ref": datum(blend_reference(lp))}
     T0 = tmin_initial_guess(lp) / tr.force_unit
     sh = shooting_for("tmin", "lp", tr)
     z, stats = _run(sh, start_vector(sh, lp.doubled_costates(), lp.K_f, T0), prm, label, options)
@@ -275,7 +275,7 @@ def solve_ot(lp: Solution, thrust_N: float, options=None, label="ot", blend_ref:
     """
     tr = lp.transfer
     bref = blend_reference(lp) if blend_ref is None else float(blend_ref)
-    prm = {**tr.params(thrust=thrust_N), "blend_ref": jnp.asarray(bref)}
+    prm = {**tr.params(thrust=thrust_N), "blend_ref": datum(bref)}
     sh = shooting_for("ot", "lp", tr)
     z, stats = _run(sh, start_vector(sh, lp.doubled_costates(), lp.K_f), prm, label + " LP->OT", options, path)
     sh_eps = shooting_for("ot", "eps", tr)
@@ -397,9 +397,9 @@ def smoothing_to(sol: Solution, eps_to: float, options=None, label="eps") -> Sol
     if sol.stage != "ot":
         raise ValueError("the smoothing homotopy is for OT solutions")
     sh = shooting_for("ot", "eps", sol.transfer)
-    prm = {**sol.prm, "eps_blend": sol.prm["eps_final"], "eps_final": jnp.asarray(eps_to)}
+    prm = {**sol.prm, "eps_blend": sol.prm["eps_final"], "eps_final": datum(eps_to)}
     z, stats = _run(sh, sol.z, prm, label, options)
-    return Solution("ot", sol.shooting, z, {**sol.prm, "eps_final": jnp.asarray(eps_to)},
+    return Solution("ot", sol.shooting, z, {**sol.prm, "eps_final": datum(eps_to)},
                     sol.transfer, stats, thrust_N=sol.thrust_N)
 
 
@@ -422,7 +422,7 @@ def to_exact(sol: Solution, options=None, label="exact") -> Solution:
     z, stats = _newton_at_end(sh, np.asarray(sol.z, float), sol.prm, label, options)
     # ε = 0 in its data: the map ignores it, and δ(S, 0) = 1[S > 0] where the smoothed throttle
     # is read (the dense samples)
-    return Solution("ot", sh, z, {**sol.prm, "eps_final": jnp.asarray(0.0)}, sol.transfer,
+    return Solution("ot", sh, z, {**sol.prm, "eps_final": datum(0.0)}, sol.transfer,
                     {**stats, "switching": "exact"}, thrust_N=sol.thrust_N, extra=dict(sol.extra))
 
 
@@ -449,7 +449,7 @@ def continue_in_params_smoothed(sol: Solution, prm_to: dict, eps_smooth: float, 
     """:func:`continue_in_params` of an OT solution done at ε = ``eps_smooth``
     (:func:`through_smoothing`)."""
     def step(up):
-        return continue_in_params(up, {**prm_to, "eps_final": jnp.asarray(eps_smooth)}, options, label, path)
+        return continue_in_params(up, {**prm_to, "eps_final": datum(eps_smooth)}, options, label, path)
     return through_smoothing(sol, eps_smooth, step, options, label)
 
 
@@ -476,13 +476,13 @@ def dense(sol: Solution, samples_per_rev: int = 200):
         return np.asarray(Ks), np.asarray(ys)
     y0 = initial_state(sol.shooting, jnp.asarray(sol.z), sol.prm)
     Ks, ys, ok = _dense(final_model(sol), y0, sol.K_f, sol.prm, n, padded_samples(n), sol.shooting.max_steps,
-                        sol.tau)
+                        datum(sol.tau))
     require_success(ok, "dense output", sol.shooting.max_steps)
     return np.asarray(Ks)[:n], np.asarray(ys)[:n]
 
 
 @partial(jax.jit, static_argnums=(0, 5))
-def _dense(model, y0, K_f, prm, n, n_pad, max_steps, tau=1.0):
+def _dense(model, y0, K_f, prm, n, n_pad, max_steps, tau):
     """The trajectory on n uniform samples, padded to n_pad (:func:`.flow.padded_samples`)."""
     Ks = uniform_samples(K_f, n, n_pad)
     rhs = lambda K, y, args: flow_field(model, K, y, tau, args)

@@ -61,6 +61,7 @@ from . import column_threads, hamiltonians as hm
 from .flow import (STEP_BOUND, capped, field, field_with_tangents, hamiltonian, ot_delta, padded_samples, params_at,
                    primal_control, require_success, step_control, uniform_samples)
 from .shooting import _start_jit, initial_state, terminal_residual, terminal_with_derivatives
+from .transfer import datum
 
 SEGMENT_STEPS = 32        # Dopri8 steps per segment of pass 1 (sizes its dense output)
 SAMPLES_PER_STEP = 8      # samples of S per step of a segment (arcs shorter than a step)
@@ -368,8 +369,9 @@ shoot_threaded = shoot     # .shooting.shoot's name for the map with k > 1 threa
 
 
 def switch_points(sh, z, tau, prm, rtol, atol):
-    """Pass 1's switches of the unknowns z: (δ on the first arc, K_s array, count, status)."""
-    p1 = _pass1(sh, z, tau, prm, rtol, atol, sh.max_steps)
+    """Pass 1's switches of the unknowns z: (δ on the first arc, K_s array, count, status); τ a
+    datum, as in :func:`.shooting.shoot` (pass 1 is the program of the map's)."""
+    p1 = _pass1(sh, z, datum(tau), prm, rtol, atol, sh.max_steps)
     return p1["d0"], p1["Ks"], p1["n_switches"], p1["status"]
 
 
@@ -379,6 +381,7 @@ def dense(sh, z, tau, prm, n, max_steps, rtol=1e-12, atol=1e-13):
     The switches of pass 1 (at the shooting tolerances) fix δ on each arc; one integration over
     [0, K_f] then reads δ by the switch count below K and steps exactly to every switch
     (diffrax ``jump_ts``), so no step straddles a discontinuity of the field."""
+    tau = datum(tau)
     p1 = _pass1(sh, z, tau, prm, sh.rtol, sh.atol, sh.max_steps)
     Ks, ys, ok = _dense_over_arcs(sh, z, tau, prm, p1["d0"], p1["Ks"], n, padded_samples(n), max_steps, rtol, atol)
     require_success(ok, "dense output", max_steps)

@@ -81,6 +81,7 @@ from scipy.optimize import brentq
 from ..constants import DAY
 from . import hamiltonians as hm
 from .shooting import final_state, residual, shoot
+from .transfer import datum
 
 
 @dataclass
@@ -145,7 +146,7 @@ class FixedTimeFamily:
 
     def set_eps(self, eps: float):
         """The family of the same problem at smoothing ε (the OT map reads it from prm['eps_final'])."""
-        self.eps, self.prm = eps, {**self.prm, "eps_final": jnp.asarray(eps)}
+        self.eps, self.prm = eps, {**self.prm, "eps_final": datum(eps)}
 
     def end_time(self, z) -> float:
         """t(K_f) of the unknowns z (time units)."""
@@ -156,7 +157,7 @@ class FixedTimeFamily:
 
     def evaluate(self, z, tf, jacobian: bool):
         """F(z, t_f) and, where ``jacobian``, ∂F/∂z: (f, J or None, ok)."""
-        prm = {**self.prm, "tf": jnp.asarray(tf)}
+        prm = {**self.prm, "tf": datum(tf)}
         if jacobian:
             f, J, _, _, ok = shoot(self.sh, jnp.asarray(z), 1.0, prm)
             self.jacobians += 1
@@ -219,7 +220,7 @@ class FixedTimeFamily:
 
     def _point(self, tf, z, J) -> FixedTimePoint | None:
         """The converged fixed-time extremal at z: its final mass and φ = p_t(K_f)."""
-        yf, ok = final_state(self.sh, jnp.asarray(z), 1.0, {**self.prm, "tf": jnp.asarray(tf)})
+        yf, ok = final_state(self.sh, jnp.asarray(z), 1.0, {**self.prm, "tf": datum(tf)})
         if not ok:
             return None
         yf = np.asarray(yf)

@@ -41,6 +41,7 @@ from ..errors import ConvergenceError
 from .flow import STEP_BOUND, capped, field, params_at, propagate, propagate_with_sensitivities
 from .shooting import (Shooting, initial_state, start_with_sensitivities, terminal_residual,
                        terminal_with_derivatives, transversality, transversality_with_derivatives)
+from .transfer import datum
 
 
 @dataclass(frozen=True)
@@ -93,16 +94,17 @@ def _through_nodes(model, y0, nodes, tau, prm, rtol, atol, max_steps):
 
 
 def shoot(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol=None, atol=None):
-    """F(Z, τ), ∂F/∂Z, ∂F/∂τ, integration steps (all arcs), success flag."""
+    """F(Z, τ), ∂F/∂Z, ∂F/∂τ, integration steps (all arcs), success flag (τ a datum, as in
+    :func:`.shooting.shoot`)."""
     sh = ms.single
-    return _shoot(ms, Z, tau, prm, nodes, weights, sh.rtol if rtol is None else rtol,
+    return _shoot(ms, Z, datum(tau), prm, nodes, weights, sh.rtol if rtol is None else rtol,
                   sh.atol if atol is None else atol, sh.max_steps)
 
 
 def residual(ms: MultipleShooting, Z, tau, prm, nodes, weights, rtol=None, atol=None):
     """F(Z, τ) of :func:`shoot` without its derivatives (residual, success flag)."""
     sh = ms.single
-    return _residual(ms, Z, tau, prm, nodes, weights, sh.rtol if rtol is None else rtol,
+    return _residual(ms, Z, datum(tau), prm, nodes, weights, sh.rtol if rtol is None else rtol,
                      sh.atol if atol is None else atol, sh.max_steps)
 
 

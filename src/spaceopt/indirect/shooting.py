@@ -32,7 +32,7 @@ import jax.numpy as jnp
 from . import column_threads, hamiltonians as hm
 from .flow import (SWITCHINGS, Model, field, hamiltonian, has_bang_bang_throttle, params_at, propagate,
                    propagate_with_sensitivities, tmin_ot_tau)
-from .transfer import MAX_STEPS, PATH_RTOL
+from .transfer import MAX_STEPS, PATH_RTOL, datum
 
 COSTATE_NAMES = ("p_p", "p_ex", "p_ey", "p_ix", "p_iy", "p_LK", "p_t", "p_m")
 
@@ -127,7 +127,10 @@ def shoot(sh: Shooting, z, tau, prm, rtol=None, atol=None):
     loose path tolerance and the tight end-point tolerance share one compiled function. With
     ``SPACEOPT_THREADS`` k > 1 the columns of Φ are propagated in k threads (.column_threads),
     except under a JAX transformation (``jax.jit(jax.vmap(shoot))``: one computation).
+    τ is taken as a :func:`~.transfer.datum`: a path in arclength gives it as a NumPy scalar, a
+    polish as a Python float, and the two types compiled each program twice.
     """
+    tau = datum(tau)
     rtol, atol = sh.rtol if rtol is None else rtol, sh.atol if atol is None else atol
     tols = (rtol, atol, *sensitivity_tolerances(sh, rtol, atol)) if sh.switching == "exact" else (rtol, atol)
     k = column_threads.threads()
@@ -155,13 +158,13 @@ def _map(sh: Shooting, name: str):
 
 def residual(sh: Shooting, z, tau, prm, rtol=None, atol=None):
     """f(z, τ) of :func:`shoot` without its derivatives (residual, success flag)."""
-    return _map(sh, "residual")(sh, z, tau, prm, sh.rtol if rtol is None else rtol,
+    return _map(sh, "residual")(sh, z, datum(tau), prm, sh.rtol if rtol is None else rtol,
                                 sh.atol if atol is None else atol)
 
 
 def final_state(sh: Shooting, z, tau, prm):
     """y(K_f) from the unknowns z at the end-point tolerances, and the success flag."""
-    return _map(sh, "final_state")(sh, z, tau, prm, sh.rtol, sh.atol)
+    return _map(sh, "final_state")(sh, z, datum(tau), prm, sh.rtol, sh.atol)
 
 
 def _final_state(sh: Shooting, z, tau, prm, rtol, atol):

@@ -32,6 +32,16 @@ def step_cap(n_rev: float, per_rev: float, minimum: int) -> int:
     return int(math.ceil(raw / 10_000) * 10_000)
 
 
+def datum(value):
+    """A problem datum as the shooting maps take it: a float64 array, strongly typed.
+
+    ``jnp.asarray(0.5)`` is weakly typed, and a weakly and a strongly typed scalar are two input
+    types to ``jax.jit``: each program a weak datum reaches is traced and compiled once more than
+    its strong twin (measured: chain.to_exact's ε_f = 0 compiled the exact map's pass 1 a second
+    time, 10 s on E1 J2). Every datum put in a problem's ``prm`` goes through here."""
+    return jnp.asarray(value, dtype=jnp.float64)
+
+
 @dataclass(frozen=True)
 class Orbit:
     """Keplerian orbit: a [m], e, i, Ω (raan), ω (argp) [deg]."""
@@ -151,7 +161,7 @@ class Transfer:
         """Nondimensional problem data for the shooting maps (a pytree of float64 arrays)."""
         L0 = math.radians(self.L0_deg)
         T = self.thrust if thrust is None else thrust
-        prm = {k: jnp.asarray(v, dtype=jnp.float64) for k, v in {
+        prm = {k: datum(v) for k, v in {
             "x0": self.initial.mee5(self.du), "xf": self.final.mee5(self.du),
             "L0": L0, "Lf": L0 + self.delta_L, "c": self.c / self.vu,
             "thrust": (0.0 if T is None or math.isnan(T) else T) / self.force_unit,

@@ -11,7 +11,6 @@ import math
 import time
 from pathlib import Path
 
-import jax.numpy as jnp
 import numpy as np
 
 from .. import artifacts
@@ -21,7 +20,7 @@ from ..indirect import chain
 from ..indirect.chain import Solution
 from ..indirect.shooting import Shooting
 from ..indirect.flow import Model
-from ..indirect.transfer import Orbit, Transfer
+from ..indirect.transfer import Orbit, Transfer, datum
 from ..constants import DAY
 from .trajectory import sample
 
@@ -166,7 +165,7 @@ def load(json_path) -> Solution:
     pinned = m.get("thrust_pinned_N", thrust)          # a point of a homotopy at τ < 1 (model 'tau')
     prm = tr.params(thrust=None if pinned is None or (isinstance(pinned, float) and math.isnan(pinned)) else pinned)
     if exact:                                           # as chain.to_exact leaves it
-        prm["eps_final"] = jnp.asarray(0.0)
+        prm["eps_final"] = datum(0.0)
     sol = Solution(data["scalars"]["stage"], sh, np.asarray(data["z"]), prm, tr, data["solver"],
                    thrust_N=thrust if thrust is not None else float("nan"), tau=m.get("tau", 1.0))
     if sol.tau != 1.0:           # an upper bound on T_min: its route's data (tmin_from_ot.bound_in_model)

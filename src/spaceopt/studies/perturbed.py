@@ -46,7 +46,7 @@ from ..indirect.continuation import ACCEPTED_UPDATES, CORRECTORS, GROWTH, Arclen
 from ..indirect.flow import SWITCHINGS
 from ..indirect.free_time import MaximumOptions, maximise_final_mass
 from ..indirect.shooting import Shooting
-from ..indirect.transfer import MAX_STEPS, PATH_RTOL, Orbit, Transfer, step_cap
+from ..indirect.transfer import MAX_STEPS, PATH_RTOL, Orbit, Transfer, datum, step_cap
 from ..constants import DAY
 from . import multirev
 
@@ -303,10 +303,9 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
     if sol.transfer.epoch_utc != tr_to.epoch_utc:
         # new departure date (E6): the epoch moves continuously from the old date to the new one
         # (prm['epoch_offset_s'] from t0_old − t0_new to 0), a natural homotopy in the date
-        import jax.numpy as jnp
         shift = float(sol.prm["pert"].epoch) - float(prm_to["pert"].epoch)
-        sol = dataclasses.replace(sol, prm={**sol.prm, "epoch_offset_s": jnp.asarray(shift)})
-        prm_to = {**prm_to, "epoch_offset_s": jnp.asarray(0.0)}
+        sol = dataclasses.replace(sol, prm={**sol.prm, "epoch_offset_s": datum(shift)})
+        prm_to = {**prm_to, "epoch_offset_s": datum(0.0)}
     same_count = sol.transfer.n_rev == tr_to.n_rev
     new_model = same_count and sol.transfer.perturbations != tr_to.perturbations
     if new_model and model_step_eps is not None:
