@@ -221,3 +221,20 @@ def test_the_step_cap_is_traced_and_fails_a_propagation_that_needs_more(e1):
     lp = e1["lp"]
     y0 = shooting.initial_state(lp.shooting, jnp.asarray(lp.z), lp.prm)
     assert "callback" not in chain._lp_integrals.lower(lp.shooting.model, y0, lp.K_f, lp.prm, 10).as_text()
+
+
+def test_a_datum_reaches_the_compiled_programs_with_one_input_type(e1):
+    """τ given as a Python float (a polish), a NumPy scalar (an arclength path) or an array
+    shares one compiled Jacobian program and gives the same map to the bit; a solution's data
+    are strongly typed (transfer.datum): a weakly typed scalar is another input type to jax.jit,
+    and every program it reached was traced and compiled again."""
+    from spaceopt.indirect import shooting
+    ot = e1["ot"]
+    z = jnp.asarray(ot.z)
+    ref = shooting.shoot(ot.shooting, z, 1.0, ot.prm)
+    compiled = shooting._shoot_capped._cache_size()
+    for tau in (np.float64(1.0), jnp.asarray(1.0), np.float32(1.0)):
+        assert np.array_equal(shooting.shoot(ot.shooting, z, tau, ot.prm)[1], ref[1])
+    assert shooting._shoot_capped._cache_size() == compiled
+    for sol in (e1["lp"], e1["tmin"], ot):
+        assert not [k for k, v in sol.prm.items() if isinstance(v, jax.Array) and v.weak_type], sol.prm
