@@ -112,31 +112,31 @@ def test_the_tau_column_is_the_derivative_in_the_homotopy_parameter(smoothed):
     assert np.linalg.norm(ftau - fd) / np.linalg.norm(ftau) < 1e-4
 
 
-@pytest.mark.parametrize("threads", ["2", "3"])
-def test_the_columns_propagated_in_threads_give_the_same_map(smoothed, monkeypatch, threads):
-    """SPACEOPT_THREADS > 1 (.column_threads): Φ's columns in blocks, one thread each (3 blocks
-    of 9 columns; 2 with a zero column padding), on both maps, at τ = 0.5 of the perturbation
+@pytest.mark.parametrize("switching, threads", [("smoothed", "3"), ("exact", "2")])
+def test_the_columns_propagated_in_threads_give_the_same_map(smoothed, monkeypatch, switching, threads):
+    """SPACEOPT_THREADS > 1 (.column_threads): Φ's columns in blocks, one thread each (9
+    columns: 3 blocks of 3 on the smoothed map; 2 blocks of 5, one a zero column of padding, on
+    the exact map, whose saltations then jump that column too), at τ = 0.5 of the perturbation
     switch where the τ column is not trivial: f, ∂f/∂z, ∂f/∂τ and the steps of one computation;
     traced (under jax.jit), the program of one thread; a thread count that is not a positive
-    integer refused."""
+    integer refused. (Each map with one block size: every block size is a program of its own.)"""
     ot, sh = smoothed
     z = jnp.asarray(ot.z)
-    for layout in (ot.shooting, sh):
-        layout = dataclasses.replace(layout, model=Model("ot", "pert", True))
-        monkeypatch.setenv("SPACEOPT_THREADS", "1")
-        one = shoot(layout, z, 0.5, ot.prm)
-        monkeypatch.setenv("SPACEOPT_THREADS", threads)
-        split = shoot(layout, z, 0.5, ot.prm)
-        assert bool(split[4]) and int(split[3]) == int(one[3])
-        np.testing.assert_allclose(split[0], one[0], rtol=0, atol=1e-14)
-        for a, b in zip(split[1:3], one[1:3]):
-            np.testing.assert_allclose(a, b, rtol=0, atol=1e-12 * float(jnp.abs(b).max()))
-        # under a transformation the map stays one computation: it traces to the program of one
-        # thread (compiling that program again would only repeat it)
-        program = lambda layout=layout: str(jax.make_jaxpr(lambda zz: shoot(layout, zz, 0.5, ot.prm))(z))  # noqa: E731
-        traced = program()
-        monkeypatch.setenv("SPACEOPT_THREADS", "1")
-        assert traced == program() and "while" in traced
+    layout = dataclasses.replace({"smoothed": ot.shooting, "exact": sh}[switching], model=Model("ot", "pert", True))
+    monkeypatch.setenv("SPACEOPT_THREADS", "1")
+    one = shoot(layout, z, 0.5, ot.prm)
+    monkeypatch.setenv("SPACEOPT_THREADS", threads)
+    split = shoot(layout, z, 0.5, ot.prm)
+    assert bool(split[4]) and int(split[3]) == int(one[3])
+    np.testing.assert_allclose(split[0], one[0], rtol=0, atol=1e-14)
+    for a, b in zip(split[1:3], one[1:3]):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-12 * float(jnp.abs(b).max()))
+    # under a transformation the map stays one computation: it traces to the program of one
+    # thread (compiling that program again would only repeat it)
+    program = lambda: str(jax.make_jaxpr(lambda zz: shoot(layout, zz, 0.5, ot.prm))(z))  # noqa: E731
+    traced = program()
+    monkeypatch.setenv("SPACEOPT_THREADS", "1")
+    assert traced == program() and "while" in traced
     monkeypatch.setenv("SPACEOPT_THREADS", "two")
     with pytest.raises(ConfigError, match="SPACEOPT_THREADS='two': expected a positive integer"):
         shoot(sh, z, 1.0, ot.prm)
