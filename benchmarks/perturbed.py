@@ -22,8 +22,9 @@ Nine parts, all written to ``results/benchmarks/perturbed.json`` (parts not reru
    (the propagation cost is linear in the revolutions) and says so.
 
 4. ``field_profile`` (``--profile``): where a perturbed step goes. For each force model, the
-   right-hand side the integrator calls (field + its sensitivity columns, ``jax.linearize`` as in
-   ``flow.propagate_with_sensitivities``) is compiled in a loop of ``PROFILE_EVALS`` evaluations;
+   right-hand side the integrator calls (field + its sensitivity columns,
+   ``flow.field_with_tangents`` as in ``flow.propagate_with_sensitivities``) is compiled in a loop
+   of ``PROFILE_EVALS`` evaluations;
    reported: µs per evaluation (min over interleaved rounds) and the number of XLA kernels
    (instructions of the compiled loop body). On CPU the cost is per kernel, not per flop.
 5. ``e8_exact_route`` (``--exact-route N``): the E8 route to every model on the exact bang-bang
@@ -307,8 +308,9 @@ def _kernel_count(compiled) -> int:
 
 def compiled_field_loop(model, prm: dict, ndir: int, tau: float = 1.0):
     """The integrator's right-hand side of ``model`` (field + ``ndir`` sensitivity columns,
-    ``jax.linearize`` as in ``flow.propagate_with_sensitivities``) at homotopy parameter ``tau``,
-    compiled in a loop of PROFILE_EVALS evaluations at a fixed state; returns (compiled, args)."""
+    ``flow.field_with_tangents`` as in ``flow.propagate_with_sensitivities``) at homotopy
+    parameter ``tau``, compiled in a loop of PROFILE_EVALS evaluations at a fixed state; returns
+    (compiled, args)."""
     import jax
     import jax.numpy as jnp
     from spaceopt.indirect import flow
@@ -319,8 +321,8 @@ def compiled_field_loop(model, prm: dict, ndir: int, tau: float = 1.0):
     def loop(y, Phi, prm_):
         def body(i, c):
             y, Phi = c
-            gy, lin = jax.linearize(lambda yy, t_: flow.field(model, 0.1 * i, yy, t_, prm_), y, tau)
-            dPhi = jax.vmap(lin, in_axes=(1, 0), out_axes=1)(Phi, tt)
+            gy, dPhi = flow.field_with_tangents(lambda yy, t_: flow.field(model, 0.1 * i, yy, t_, prm_), y,
+                                                jnp.asarray(tau, jnp.float64), Phi, tt)
             return y + 1e-9 * gy, Phi + 1e-9 * dPhi
         return jax.lax.fori_loop(0, PROFILE_EVALS, body, (y, Phi))
     return jax.jit(loop).lower(y0, Phi, prm).compile(), (y0, Phi, prm)
