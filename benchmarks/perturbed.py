@@ -314,15 +314,17 @@ def compiled_field_loop(model, prm: dict, ndir: int, tau: float = 1.0):
     import jax
     import jax.numpy as jnp
     from spaceopt.indirect import flow
+    from spaceopt.indirect.transfer import datum
     y0 = jnp.concatenate([prm["x0"], jnp.array([0.3, 0.01, 1.0]), 1e-3 * jnp.ones(model.n)])
     Phi = jnp.eye(2 * model.n, ndir) + 0.01
     tt = jnp.zeros(ndir).at[-1].set(1.0)
+    tau = datum(tau)
 
     def loop(y, Phi, prm_):
         def body(i, c):
             y, Phi = c
-            gy, dPhi = flow.field_with_tangents(lambda yy, t_: flow.field(model, 0.1 * i, yy, t_, prm_), y,
-                                                jnp.asarray(tau, jnp.float64), Phi, tt)
+            gy, dPhi = flow.field_with_tangents(lambda yy, t_: flow.field(model, 0.1 * i, yy, t_, prm_), y, tau,
+                                                Phi, tt)
             return y + 1e-9 * gy, Phi + 1e-9 * dPhi
         return jax.lax.fori_loop(0, PROFILE_EVALS, body, (y, Phi))
     return jax.jit(loop).lower(y0, Phi, prm).compile(), (y0, Phi, prm)
