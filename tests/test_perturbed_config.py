@@ -1389,3 +1389,28 @@ def test_the_exact_e8_profile_validates_and_selects_the_exact_route():
     assert P.e8_runs(pc) == [(m, float(n)) for m in pc["e8"]["run_models"] for n in pc["e8"]["run_n_rev"]]  # 450 too
     text = R.e8_route_text("chain", P.e8_smoothing(pc), P.e8_model_steps(pc))
     assert "exact bang-bang problem" in text and r"4$\times$4 + Moon + Sun from the $J_2$ extremal (in arclength" in text
+
+
+def test_the_thrust_ratio_blend_reference_is_the_lp_primer_times_t_over_t0():
+    """blend_ref 'thrust_ratio' (E9's setting): W_ref = 2 V_LP/Δt_LP × T/T⁽⁰⁾ with T⁽⁰⁾ the
+    constant thrust giving the LP's Δv over its Δt; a number is taken as it is; anything else is
+    a one-line error naming the key, from the schema and from the library."""
+    from types import SimpleNamespace
+
+    from spaceopt.config import validate_section
+    assert PC["cases"]["e9"]["blend_ref"] == "thrust_ratio"
+    tr = P.transfer_from_config(PC, "e9", "j2")
+    lp = SimpleNamespace(transfer=tr, extra={"dv_m_s": 10.0, "tof_s": 5 * 86400.0})
+    w_ref = 2.0 * (10.0 / tr.vu) / (5 * 86400.0 / tr.tu)
+    T0 = tr.m0 * tr.c / (5 * 86400.0) * (1.0 - math.exp(-10.0 / tr.c))
+    assert chain.blend_reference(lp) == pytest.approx(w_ref, rel=1e-15)
+    assert chain.blend_reference(lp, 1.0) == pytest.approx(w_ref * 1.0 / T0, rel=1e-15)
+    assert 20 < 1.0 / T0 < 50                  # E9's 1 N against the LP's ~0.02 N: the layer the ratio removes
+    with pytest.raises(ConfigError, match=r"perturbed\.cases\.blend_ref='thrust'.*thrust_ratio"):
+        P.solve_for(tr, "e9", blend_ref="thrust")
+    for value in ("thrust", -1.0):
+        bad = {"perturbed": copy.deepcopy(PC)}
+        bad["perturbed"]["cases"]["e9"]["blend_ref"] = value
+        with pytest.raises(ConfigError) as info:
+            validate_section(bad, "perturbed", ROOT / "config/schema/perturbed.schema.yaml")
+        assert str(info.value).startswith("perturbed.cases.e9.blend_ref") and "\n" not in str(info.value)

@@ -229,10 +229,24 @@ def tmin_initial_guess(lp: Solution) -> float:
     return tr.m0 * tr.c / dt * (1.0 - math.exp(-lp.extra["dv_m_s"] / tr.c))
 
 
-def blend_reference(lp: Solution) -> float:
-    """W_ref = 2 V_LP/Δt_LP (nondimensional): the mean primer magnitude of the doubled LP costates."""
+BLEND_REFS = ("lp_primer", "thrust_ratio")
+
+
+def blend_reference(lp: Solution, thrust_N: float | None = None) -> float:
+    """W_ref = 2 V_LP/Δt_LP (nondimensional): the mean primer magnitude of the doubled LP costates.
+
+    With ``thrust_N`` (the ``blend_ref`` choice 'thrust_ratio'): W_ref T/T⁽⁰⁾, T⁽⁰⁾ the constant
+    thrust that gives the LP's Δv over its Δt (:func:`tmin_initial_guess`). The OT field thrusts
+    at T where the LP field's acceleration is of the order of T⁽⁰⁾/m, so with T ≫ T⁽⁰⁾ the OT
+    field takes over the blend (3.3.1) once τ W ≳ T⁽⁰⁾/T, and the path crosses from LP to OT
+    in a thin layer at small τ. Measured on E9 J2 (T/T⁽⁰⁾ = 32): |dz/dτ| rises from 1e-2 to 1
+    within τ 0.001–0.004, where the τ path rejects four steps; with the ratio in W_ref it peaks
+    at 4e-2 near τ 0.1, and the LP → OT path in τ takes 86 Jacobians instead of 95, to the same
+    extremal (docs/perturbed-e6-e7-e8.md, "Fiftieth session").
+    """
     tr = lp.transfer
-    return 2.0 * (lp.extra["dv_m_s"] / tr.vu) / (lp.extra["tof_s"] / tr.tu)
+    w_ref = 2.0 * (lp.extra["dv_m_s"] / tr.vu) / (lp.extra["tof_s"] / tr.tu)
+    return w_ref if thrust_N is None else w_ref * thrust_N / tmin_initial_guess(lp)
 
 
 def solve_tmin(lp: Solution, options=None, label="tmin") -> Solution:
@@ -264,17 +278,21 @@ def existence_verdict(tmin: Solution, thrust_N: float) -> dict:
             "exists": exists, "n_rev": n, "n_rev_needed_estimate": n * T_min / thrust_N, "message": message}
 
 
-def solve_ot(lp: Solution, thrust_N: float, options=None, label="ot", blend_ref: float | None = None,
+def solve_ot(lp: Solution, thrust_N: float, options=None, label="ot", blend_ref: float | str | None = None,
              path: str = "tau", switching: str = "smoothed") -> Solution:
     """LP → OT homotopy (3.3.1) at thrust T, then ε log-uniform from ε₁ to ε_f (in τ).
 
-    ``blend_ref``: W_ref of the blend weights (default :func:`blend_reference`; 1 gives the
-    printed (3.3.1) weights). ``path``: how the LP → OT path is followed, 'tau' or 'arclength'
+    ``blend_ref``: W_ref of the blend weights, a number (1 gives the printed (3.3.1) weights) or
+    one of :data:`BLEND_REFS`: 'lp_primer' (None, the default), the LP's mean primer, or
+    'thrust_ratio', that times T/T⁽⁰⁾ (:func:`blend_reference`). ``path``: how the LP → OT path is followed, 'tau' or 'arclength'
     (through turning points in τ). ``switching`` 'exact': no descent in ε; the exact bang-bang
     extremal by Newton from the ε₁ one (:func:`to_exact`).
     """
     tr = lp.transfer
-    bref = blend_reference(lp) if blend_ref is None else float(blend_ref)
+    if blend_ref in (None, "lp_primer", "thrust_ratio"):
+        bref = blend_reference(lp, thrust_N if blend_ref == "thrust_ratio" else None)
+    else:
+        bref = float(blend_ref)
     prm = {**tr.params(thrust=thrust_N), "blend_ref": datum(bref)}
     sh = shooting_for("ot", "lp", tr)
     z, stats = _run(sh, start_vector(sh, lp.doubled_costates(), lp.K_f), prm, label + " LP->OT", options, path)

@@ -237,7 +237,7 @@ ROUTES = ("lp-ot", "lp-tmin-ot")
 
 
 def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False, path: str = "arclength",
-              options: ContinuationOptions | None = None, blend_ref: float | None = None,
+              options: ContinuationOptions | None = None, blend_ref: float | str | None = None,
               route: str = "lp-ot", switching: str = "smoothed") -> tuple[Solution, Solution]:
     """The chain from the zero guess → OT (perturbed when ``tr`` is); returns (lp, ot).
 
@@ -247,7 +247,8 @@ def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False, path: str = 
     are switched on by the (3.4.1) τ in the second route, by the (3.3.1) τ in the first.
     ``path``: how the homotopies are followed, 'tau' or 'arclength' (passes turning points).
     ``lp_perturbed``: solve the LP with the perturbations on (``chain.solve_lp(perturbed=True)``).
-    ``blend_ref``: W_ref of the (3.3.1) blend weights (None: the mean LP primer).
+    ``blend_ref``: W_ref of the (3.3.1) blend weights: a number, or one of ``chain.BLEND_REFS``
+    (None: 'lp_primer', the mean LP primer; 'thrust_ratio': that times T/T⁽⁰⁾).
     ``switching`` 'exact' (case option ``switching``, :func:`case_switching`): the OT extremal of
     the exact bang-bang map, by Newton from ε₁ (``chain.to_exact``), instead of the descent to ε_f.
     """
@@ -255,6 +256,9 @@ def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False, path: str = 
         raise ConfigError("perturbed.numerics.homotopy_path", path, f"expected one of {sorted(chain.PATHS)}")
     if route not in ROUTES:
         raise ConfigError("perturbed.cases.route", route, f"expected one of {', '.join(ROUTES)}")
+    if isinstance(blend_ref, str) and blend_ref not in chain.BLEND_REFS:
+        raise ConfigError("perturbed.cases.blend_ref", blend_ref,
+                          f"expected a number or one of {', '.join(chain.BLEND_REFS)}")
     lp = chain.solve_lp(tr, options, label=f"{label}/lp", perturbed=lp_perturbed and tr.perturbed)
     if route == "lp-ot":
         ot = chain.solve_ot(lp, tr.thrust, options, label=f"{label}/ot", blend_ref=blend_ref, path=path,
