@@ -192,7 +192,8 @@ def test_the_exact_layout_is_refused_where_it_is_undefined():
 def test_perturbations_switched_on_and_changed_on_the_exact_map(exact, unperturbed_exact):
     """studies.perturbed.perturb_from_unperturbed from an exact unperturbed extremal: J2 switched
     on by τ on the exact map lands on the exact J2 extremal that Newton reaches from the smoothed
-    J2 one; chain.continue_in_model then moves it to 4×4 on the exact map."""
+    J2 one; chain.continue_in_model then moves it to the 2×2 geopotential on the exact map (2×2:
+    time-dependent like the studies' 4×4, and its programs compile ~30 % faster)."""
     from spaceopt.studies import perturbed as P
     unperturbed = unperturbed_exact
     j2 = P.perturb_from_unperturbed(unperturbed, TR, "j2 on", path="tau")
@@ -201,11 +202,11 @@ def test_perturbations_switched_on_and_changed_on_the_exact_map(exact, unperturb
     with pytest.raises(Exception, match="no smoothing eps"):
         P.perturb_from_unperturbed(unperturbed, TR, "j2 on", eps_smooth=1e-2)
     # the force model changed on the exact map (the data's smoothing eps is no datum of it)
-    tr44 = dataclasses.replace(TR, perturbations={"geopotential": {"degree": 4, "order": 4}})
-    g44 = chain.continue_in_model(j2, tr44.params(thrust=15.0))
-    assert g44.shooting.switching == "exact" and float(g44.prm["eps_final"]) == 0.0
-    f, ok = residual(g44.shooting, jnp.asarray(g44.z), 1.0, g44.prm)
-    assert bool(ok) and float(jnp.max(jnp.abs(f))) < 1e-9 and np.max(np.abs(g44.z - j2.z)) > 1e-9
+    tr22 = dataclasses.replace(TR, perturbations={"geopotential": {"degree": 2, "order": 2}})
+    g22 = chain.continue_in_model(j2, tr22.params(thrust=15.0))
+    assert g22.shooting.switching == "exact" and float(g22.prm["eps_final"]) == 0.0
+    f, ok = residual(g22.shooting, jnp.asarray(g22.z), 1.0, g22.prm)
+    assert bool(ok) and float(jnp.max(jnp.abs(f))) < 1e-9 and np.max(np.abs(g22.z - j2.z)) > 1e-9
 
 
 def test_an_exact_solution_is_sampled_saved_and_read_back(exact, tmp_path):

@@ -24,9 +24,12 @@ MR = yaml.safe_load((ROOT / "config/studies/multirev.yaml").read_text())["multir
 
 @pytest.fixture(scope="module")
 def blend():
-    """E5 (5 rev) under the force-model blend J2 → 4×4 at τ = 0.4 (time-dependent: t a state,
-    p_t an unknown), three arcs, nodes on the trajectory of an arbitrary costate vector."""
-    tr = P.transfer_from_config(PT, "e5", "g44")
+    """E5 (5 rev) under the force-model blend J2 → 2×2 geopotential at τ = 0.4 (time-dependent
+    through C22/S22 and the Earth angle: t a state, p_t an unknown), three arcs, nodes on the
+    trajectory of an arbitrary costate vector. 2×2 rather than the studies' 4×4: the same blend
+    and time dependence, programs that compile ~30 % faster."""
+    g44 = P.transfer_from_config(PT, "e5", "g44")
+    tr = dataclasses.replace(g44, perturbations={**g44.perturbations, "geopotential": {"degree": 2, "order": 2}})
     sh = chain.shooting_for("ot", "model", tr)
     prm = {**tr.params(thrust=0.5), "pert_from": P.transfer_from_config(PT, "e5", "j2").params()["pert"]}
     z = chain.start_vector(sh, {"p_p": 0.03, "p_ex": -0.01, "p_iy": 0.005, "p_LK": -0.02, "p_m": 0.01,
