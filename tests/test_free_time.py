@@ -1,6 +1,6 @@
 """The free-time end game (spaceopt.indirect.free_time): a local maximum of the final mass along
 the fixed-time family, first on model families m_f(t_f) whose φ = −dm_f/dt_f is known, then on
-a perturbed 2-revolution transfer (E1 orbits, EGM96 4×4 with the Earth's rotation: H depends on t)."""
+a perturbed 2-revolution transfer (E1 orbits, EGM96 2×2 with the Earth's rotation: H depends on t)."""
 import dataclasses
 
 import numpy as np
@@ -235,10 +235,10 @@ def test_brent_returns_a_crossing_from_minus_to_plus_inside_a_wiggly_bracket():
 
 
 @pytest.fixture(scope="module")
-def perturbed_e1(e1_g44_era):
-    """E1 OT 15 N (2 revolutions) with EGM96 4×4 and the Earth rotation angle switched on
+def perturbed_e1(e1_g22_era):
+    """E1 OT 15 N (2 revolutions) with EGM96 2×2 and the Earth rotation angle switched on
     (conftest), and the end game from it with probes 0.01 d apart."""
-    sol = e1_g44_era[0]
+    sol = e1_g22_era[0]
     opt = ft.MaximumOptions(probe_days=0.01, verbose=False)
     return sol, opt, ft.maximise_final_mass(sol, opt)
 
@@ -253,7 +253,7 @@ def test_the_perturbed_extremal_is_certified_a_maximum_and_kept(perturbed_e1):
 
 
 def test_the_survey_of_a_family_with_one_maximum_keeps_it_and_records_it(perturbed_e1):
-    """E1 4×4 (m_f(t_f) smooth, one maximum): the survey walks ±0.03 d from the certified maximum
+    """E1 2×2 (m_f(t_f) smooth, one maximum): the survey walks ±0.03 d from the certified maximum
     and finds no other; the record lists the one maximum, and the solution is the same."""
     sol, opt, (out, rec) = perturbed_e1
     out_s, rec_s = ft.maximise_final_mass(sol, dataclasses.replace(opt, survey_days=0.03, survey_max_points=12))
@@ -299,13 +299,13 @@ def test_an_interrupted_end_game_resumes_from_the_saved_free_time_solution(pertu
     sol = perturbed_e1[0]
     path = tmp_path / "free_time_start.json"
     assert P.end_game_start(path) is None
-    P.save(sol, path, {"case": "e1 g44"}, 123.0, {"continued_from": "chain"}, samples_per_rev=20)
+    P.save(sol, path, {"case": "e1 g22"}, 123.0, {"continued_from": "chain"}, samples_per_rev=20)
     back, extra, wall = P.end_game_start(path)
     np.testing.assert_array_equal(back.z, sol.z)
     assert back.transfer.perturbed and extra["continued_from"] == "chain" and wall == 123.0
     from spaceopt import artifacts
     start = extra["free_time_start_provenance"]      # the code and config the start was computed with
-    assert start["config_hash"] == artifacts.config_hash({"case": "e1 g44"}) and start["wall_time_s"] == 123.0
+    assert start["config_hash"] == artifacts.config_hash({"case": "e1 g22"}) and start["wall_time_s"] == 123.0
     path.with_suffix(".npz").write_bytes(b"truncated")
     assert P.end_game_start(path) is None
 
@@ -319,7 +319,7 @@ def test_a_model_step_whose_polish_fails_hands_its_end_point_to_the_end_game(per
     from spaceopt.errors import ConvergenceError
     from spaceopt.studies import perturbed as P
 
-    sol, opt, (g44, _) = perturbed_e1
+    sol, opt, (g22, _) = perturbed_e1
     tr_j2 = dataclasses.replace(sol.transfer, perturbations={"geopotential": "j2", "earth_angle": "era"})
     j2 = P.warm_start(sol, tr_j2, "e1 j2", options=QUIET, model_path="arclength")
     with pytest.raises(ConvergenceError, match="final Newton polish") as info:

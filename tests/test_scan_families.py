@@ -66,14 +66,14 @@ def test_same_extremal_needs_both_the_mass_and_the_time_to_agree():
 
 
 @pytest.fixture(scope="module")
-def two_epochs(e1_g44_era):
-    """E1 OT 15 N (2 revolutions) with EGM96 4×4 on the Earth rotation angle, solved from the
+def two_epochs(e1_g22_era):
+    """E1 OT 15 N (2 revolutions) with EGM96 2×2 on the Earth rotation angle, solved from the
     unperturbed extremal at two departure epochs 6 h apart (the geopotential turns by 90°); the
     first is conftest's."""
     from spaceopt.studies import multirev, perturbed as P
 
     quiet = ContinuationOptions(verbose=False)
-    noon, ot = e1_g44_era
+    noon, ot = e1_g22_era
     assert noon.transfer.epoch_utc == "2021-05-09T12:00:00"
     pc = {"numerics": {"tof_maximum": {"probe_days": 0.01}}, "cases": {"e1": {}}}
     out = {}
