@@ -1408,6 +1408,8 @@ def test_the_thrust_ratio_blend_reference_is_the_lp_primer_times_t_over_t0():
     assert 20 < 1.0 / T0 < 50                  # E9's 1 N against the LP's ~0.02 N: the layer the ratio removes
     with pytest.raises(ConfigError, match=r"perturbed\.cases\.blend_ref='thrust'.*thrust_ratio"):
         P.solve_for(tr, "e9", blend_ref="thrust")
+    with pytest.raises(ValueError, match=r"blend_ref 'thrust': expected a number or one of lp_primer, thrust_ratio"):
+        chain.solve_ot(lp, 1.0, blend_ref="thrust")
     for value in ("thrust", -1.0):
         bad = {"perturbed": copy.deepcopy(PC)}
         bad["perturbed"]["cases"]["e9"]["blend_ref"] = value

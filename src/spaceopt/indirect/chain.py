@@ -284,12 +284,14 @@ def solve_ot(lp: Solution, thrust_N: float, options=None, label="ot", blend_ref:
 
     ``blend_ref``: W_ref of the blend weights, a number (1 gives the printed (3.3.1) weights) or
     one of :data:`BLEND_REFS`: 'lp_primer' (None, the default), the LP's mean primer, or
-    'thrust_ratio', that times T/T⁽⁰⁾ (:func:`blend_reference`). ``path``: how the LP → OT path is followed, 'tau' or 'arclength'
-    (through turning points in τ). ``switching`` 'exact': no descent in ε; the exact bang-bang
+    'thrust_ratio', that times T/T⁽⁰⁾ (:func:`blend_reference`). ``path``: how the LP → OT
+    path is followed, 'tau' or 'arclength' (through turning points in τ). ``switching`` 'exact': no descent in ε; the exact bang-bang
     extremal by Newton from the ε₁ one (:func:`to_exact`).
     """
     tr = lp.transfer
-    if blend_ref in (None, "lp_primer", "thrust_ratio"):
+    if blend_ref is None or isinstance(blend_ref, str):
+        if blend_ref not in (None, *BLEND_REFS):
+            raise ValueError(f"blend_ref {blend_ref!r}: expected a number or one of {', '.join(BLEND_REFS)}")
         bref = blend_reference(lp, thrust_N if blend_ref == "thrust_ratio" else None)
     else:
         bref = float(blend_ref)
