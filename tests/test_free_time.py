@@ -319,7 +319,7 @@ def test_a_model_step_whose_polish_fails_hands_its_end_point_to_the_end_game(per
     from spaceopt.errors import ConvergenceError
     from spaceopt.studies import perturbed as P
 
-    sol, opt, (g22, _) = perturbed_e1
+    sol, opt, _ = perturbed_e1
     tr_j2 = dataclasses.replace(sol.transfer, perturbations={"geopotential": "j2", "earth_angle": "era"})
     j2 = P.warm_start(sol, tr_j2, "e1 j2", options=QUIET, model_path="arclength")
     with pytest.raises(ConvergenceError, match="final Newton polish") as info:
