@@ -13,7 +13,8 @@ homotopies — the end points τ = 0 and τ = 1 are identical, which is all the 
 W is measured in units of W_ref (``prm['blend_ref']``, the mean LP primer magnitude): with the
 printed weights, a 100-revolution problem whose primer is ~10⁻³ only leaves the LP field in the
 last 0.1 % of τ, and the continuation crawls there; scaling W reparametrises τ without moving
-either end point (measured: see benchmarks/multirev.py).
+either end point (measured: see benchmarks/multirev.py). Where the OT thrust is far above the
+LP's, W_ref may also carry the ratio of the two (``chain.blend_reference``, E9).
 
 Smoothed throttle: δ(S(y), ε) is evaluated outside ``jax.grad`` and passed to H as a constant, so
 the costate equations carry no ∂δ/∂S term (δ frozen, spec 01-methods §7), while ``jax.jvp`` of
