@@ -285,8 +285,8 @@ def solve_ot(lp: Solution, thrust_N: float, options=None, label="ot", blend_ref:
     ``blend_ref``: W_ref of the blend weights, a number (1 gives the printed (3.3.1) weights) or
     one of :data:`BLEND_REFS`: 'lp_primer' (None, the default), the LP's mean primer, or
     'thrust_ratio', that times T/T⁽⁰⁾ (:func:`blend_reference`). ``path``: how the LP → OT
-    path is followed, 'tau' or 'arclength' (through turning points in τ). ``switching`` 'exact': no descent in ε; the exact bang-bang
-    extremal by Newton from the ε₁ one (:func:`to_exact`).
+    path is followed, 'tau' or 'arclength' (through turning points in τ). ``switching`` 'exact':
+    no descent in ε; the exact bang-bang extremal by Newton from the ε₁ one (:func:`to_exact`).
     """
     tr = lp.transfer
     if blend_ref is None or isinstance(blend_ref, str):
