@@ -58,10 +58,10 @@ def probe(max_steps: int | None = None) -> dict:
     from spaceopt.indirect import chain, exact_switching
     from spaceopt.indirect.continuation import ContinuationOptions
     from spaceopt.indirect.shooting import residual
-    from spaceopt.studies import multirev
+    from spaceopt.studies import multirev_config
 
     cfg = yaml.safe_load((ROOT / "config" / "studies" / "multirev.yaml").read_text())["multirev"]
-    tr = dataclasses.replace(multirev.transfer_from_config(cfg, "e1"), perturbations={"geopotential": "j2"},
+    tr = dataclasses.replace(multirev_config.transfer_from_config(cfg, "e1"), perturbations={"geopotential": "j2"},
                              epoch_utc="2021-05-09T12:00:00")
     if max_steps is not None:
         tr = dataclasses.replace(tr, max_steps=max_steps)

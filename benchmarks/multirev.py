@@ -65,14 +65,14 @@ def main(argv=None):
     os.environ["SPACEOPT_JAX_CACHE"] = tempfile.mkdtemp(prefix="spaceopt-bench-cache-")
     import yaml
     from spaceopt import artifacts
-    from spaceopt.studies import multirev
+    from spaceopt.studies import multirev_config
 
     cfg = yaml.safe_load((ROOT / "config" / "studies" / "multirev.yaml").read_text())["multirev"]
     out = {"machine": {"cpus": os.cpu_count(), "load_avg_start": os.getloadavg()}, "cases": {}}
     for case in args.cases:
         cc = cfg["cases"][case]
         thrust = cc["ot_thrust_N"][0]
-        tr = multirev.transfer_from_config(cfg, case)
+        tr = multirev_config.transfer_from_config(cfg, case)
         cold, cold_total = run_chain(tr, thrust)      # includes JIT compilation
         warm, warm_total = run_chain(tr, thrust)      # compiled functions reused
         prop_s, prop_steps = propagation_time(warm["ot"][0])

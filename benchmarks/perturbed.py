@@ -123,9 +123,9 @@ def e8_route_times(e8: dict) -> dict:
     """Wall time of the DAG's route to each perturbed E8 solve, from the artifacts: the
     unperturbed count n (``perturbed.e8.count_start: chain``, from the zero guess) or the
     unperturbed counts up to n (``previous``: each continues from the one before), then the
-    models at n that lead to the solve (``perturbed.case_route``: each from its start model); the
+    models at n that lead to the solve (``perturbed_config.case_route``: each from its start model); the
     Jacobians of the solvers and of the free-time end games. Only routes whose solves all exist."""
-    from spaceopt.studies.perturbed import case_route, e8_count_start
+    from spaceopt.studies.perturbed_config import case_route, e8_count_start
     pc = _perturbed_config()
     models = pc["cases"]["e8"]["models"]
     ns = sorted(float(n) for n in pc["e8"]["n_rev"])
@@ -427,7 +427,7 @@ def e8_exact_route(n_rev: float, corrector: str | None = None, last_model: str |
     """The E8 route to the case's last model at ``n_rev`` on the exact bang-bang map
     (:mod:`spaceopt.indirect.exact_switching`), each stage timed: the unperturbed chain from the
     zero guess to ε₁ = eps_blend only (no descent in ε), the exact unperturbed extremal by Newton
-    (``chain.to_exact``); then each force model of the route (``perturbed.case_route``: each from
+    (``chain.to_exact``); then each force model of the route (``perturbed_config.case_route``: each from
     its start model, the case option ``model_from``) by the DAG's warm start
     (``perturbed.warm_start`` with the case's ``model_step``: the first perturbed model switched
     on, each later one by the model blend, single shooting on the exact map); the free-time
@@ -436,7 +436,7 @@ def e8_exact_route(n_rev: float, corrector: str | None = None, last_model: str |
     time, Jacobians, m_p, Δt; the route's total; the DAG's artifacts of the same solves where they
     exist (``results/perturbed/e8``) for comparison. ``corrector``: the continuation corrector of
     the chain from the zero guess ('newton' | 'chord', ``ContinuationOptions``; None: the case's,
-    ``perturbed.case_corrector``, as the DAG's chain takes it); the warm starts
+    ``perturbed_config.case_corrector``, as the DAG's chain takes it); the warm starts
     take the case's ``model_step`` (``config/e8_exact.yaml``: J2 in τ with the chord corrector,
     the full model in arclength with truncated-SVD steps).
     ``last_model``: the route stops after that model (no end game unless it is the case's last).
@@ -444,12 +444,12 @@ def e8_exact_route(n_rev: float, corrector: str | None = None, last_model: str |
     the case option of ``config/e8_exact.yaml``); None: the case's (``--configfile``)."""
     from spaceopt.indirect import chain
     from spaceopt.indirect.free_time import MaximumOptions, maximise_final_mass
-    from spaceopt.studies import perturbed as P
+    from spaceopt.studies import perturbed as P, perturbed_config as C
 
     pc = _perturbed_config()
-    models = P.case_route(pc, "e8", last_model or pc["cases"]["e8"]["models"][-1])
+    models = C.case_route(pc, "e8", last_model or pc["cases"]["e8"]["models"][-1])
     label = f"bench/e8-exact/n{n_rev:g}"
-    corrector = corrector or P.case_corrector(pc, "e8")
+    corrector = corrector or C.case_corrector(pc, "e8")
     options = chain.ContinuationOptions(corrector=corrector)
 
     def transfer(model):
@@ -536,10 +536,10 @@ def chain_rtol_comparison(n_rev: float, rtol: float, rounds: int) -> dict:
     from spaceopt.indirect import chain
     from spaceopt.indirect.shooting import residual, shoot
     from spaceopt.indirect.transfer import PATH_RTOL
-    from spaceopt.studies import perturbed as P
+    from spaceopt.studies import perturbed as P, perturbed_config as C
 
     pc = _perturbed_config()
-    options = chain.ContinuationOptions(corrector=P.case_corrector(pc, "e8"))
+    options = chain.ContinuationOptions(corrector=C.case_corrector(pc, "e8"))
     _, ot = P.solve_for(_e8_at_eps_blend(pc, "unperturbed", n_rev), f"bench/chain-rtol/n{n_rev:g}",
                         path=pc["numerics"].get("homotopy_path", "arclength"), options=options)
     sh, z = ot.shooting, jnp.asarray(ot.z)
@@ -648,7 +648,7 @@ def threads_comparison(n_rev: float, k: int, rounds: int) -> dict:
     side: both compiled first, then ``rounds`` rounds in alternating order; wall times, their
     paired median ratio, and the largest differences of f, ∂f/∂z, ∂f/∂τ and the steps."""
     import jax.numpy as jnp
-    from spaceopt.indirect.column_threads import THREADS_ENV
+    from spaceopt.config import THREADS_ENV
     from spaceopt.indirect.shooting import shoot
 
     sh, z, prm, tol = _blend_jacobian_at(n_rev)

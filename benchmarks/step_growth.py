@@ -29,9 +29,9 @@ RULES = ("iterations", "residual")
 def multirev_chain(case):
     import yaml
     from spaceopt.indirect import chain
-    from spaceopt.studies import multirev
+    from spaceopt.studies import multirev_config
     cfg = yaml.safe_load((ROOT / "config" / "studies" / "multirev.yaml").read_text())["multirev"]
-    tr = multirev.transfer_from_config(cfg, case)
+    tr = multirev_config.transfer_from_config(cfg, case)
 
     def run(opts):
         lp = chain.solve_lp(tr, opts)

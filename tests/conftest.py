@@ -53,9 +53,9 @@ def pytest_xdist_make_scheduler(config, log):
 
 def e1_transfer(**changes):
     """The E1 transfer of config/studies/multirev.yaml (2 revolutions), with ``changes``."""
-    from spaceopt.studies import multirev
+    from spaceopt.studies import multirev_config
     cfg = yaml.safe_load((ROOT / "config" / "studies" / "multirev.yaml").read_text())["multirev"]
-    return dataclasses.replace(multirev.transfer_from_config(cfg, "e1"), **changes)
+    return dataclasses.replace(multirev_config.transfer_from_config(cfg, "e1"), **changes)
 
 
 @pytest.fixture(scope="session")

@@ -11,7 +11,7 @@ import yaml
 from spaceopt import cli
 from spaceopt.config import load_yaml, validate_section
 from spaceopt.errors import ConfigError
-from spaceopt.studies.multirev import check_config
+from spaceopt.studies.multirev_config import check_config
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMA = ROOT / "config" / "schema" / "multirev.schema.yaml"

@@ -14,11 +14,11 @@ from spaceopt.indirect import chain, exact_switching as X, hamiltonians as hm
 from spaceopt.indirect.flow import Model
 from spaceopt.indirect.shooting import (Shooting, final_state, initial_state, residual, sensitivity_tolerances,
                                        shoot)
-from spaceopt.studies import multirev
+from spaceopt.studies import multirev, multirev_config
 
 ROOT = Path(__file__).resolve().parents[1]
 CFG = yaml.safe_load((ROOT / "config" / "studies" / "multirev.yaml").read_text())["multirev"]
-TR = dataclasses.replace(multirev.transfer_from_config(CFG, "e1"), perturbations={"geopotential": "j2"},
+TR = dataclasses.replace(multirev_config.transfer_from_config(CFG, "e1"), perturbations={"geopotential": "j2"},
                          epoch_utc="2021-05-09T12:00:00")
 
 

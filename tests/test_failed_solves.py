@@ -4,7 +4,7 @@ import json
 from pathlib import Path
 
 import yaml
-from spaceopt.studies import failed_solves as FS, perturbed as P, perturbed_report as R
+from spaceopt.studies import failed_solves as FS, perturbed_config as C, perturbed_report as R
 
 PC = yaml.safe_load((Path(__file__).resolve().parents[1] / "config/studies/perturbed.yaml").read_text())["perturbed"]
 
@@ -62,7 +62,7 @@ def test_the_paper_names_each_failure_with_its_reason():
 
 def test_the_paper_section_carries_the_failures_escaped_for_latex():
     sentence = FS.failures_sentence({}, {("g44_moon_sun", 400.0): "no root near the end point"})
-    text = R.paper_section([], {}, None, {}, [], e8_count_start="chain", smoothing=P.e8_smoothing(PC),
-                           e8_steps=P.e8_model_steps(PC), failures=sentence)
+    text = R.paper_section([], {}, None, {}, [], e8_count_start="chain", smoothing=C.e8_smoothing(PC),
+                           e8_steps=C.e8_model_steps(PC), failures=sentence)
     assert "E8 g44\\_moon\\_sun at 400 revolutions (no root near the end point)" in text
     assert "failure.json" in text and "./dev reproduce retries them" in text

@@ -14,7 +14,7 @@ from spaceopt.indirect import chain
 from spaceopt.indirect import multiple_shooting as ms_
 from spaceopt.indirect.continuation import POLISH_FAILED
 from spaceopt.indirect.shooting import residual, shoot
-from spaceopt.studies import multirev
+from spaceopt.studies import multirev_config
 from spaceopt.studies import perturbed as P
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -98,7 +98,7 @@ def test_one_arc_and_a_start_that_does_not_integrate_are_refused(blend):
 def test_continuation_by_multiple_shooting_lands_on_the_single_shooting_extremal():
     """E1 OT, 15 → 16 N: the thrust continuation over three arcs ends (after the single-shooting
     polish) on the extremal single shooting reaches."""
-    tr = multirev.transfer_from_config(MR, "e1")
+    tr = multirev_config.transfer_from_config(MR, "e1")
     q = chain.ContinuationOptions(verbose=False)
     ot = chain.solve_ot(chain.solve_lp(tr, q), 15.0, q)
     single = chain.continue_in_params(ot, tr.params(thrust=16.0), q)
@@ -113,7 +113,7 @@ def test_a_failed_multiple_shooting_polish_goes_on_to_the_single_shooting_polish
     """E1 OT, 15 → 16 N over three arcs: where the path reaches τ = 1 and only its polish fails
     (E8 500 rev: nearly flat node-time directions), the end point's first block is polished by
     single shooting, onto the same extremal, and the failure is in the statistics."""
-    tr = multirev.transfer_from_config(MR, "e1")
+    tr = multirev_config.transfer_from_config(MR, "e1")
     q = chain.ContinuationOptions(verbose=False)
     ot = chain.solve_ot(chain.solve_lp(tr, q), 15.0, q)
     split = dataclasses.replace(ot, shooting=dataclasses.replace(ot.shooting, path_arcs=3))

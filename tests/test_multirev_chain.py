@@ -15,7 +15,7 @@ import yaml
 from spaceopt.indirect import chain, tmin_from_ot
 from spaceopt.indirect.flow import hamiltonian
 from spaceopt.report import compare
-from spaceopt.studies import multirev, verify
+from spaceopt.studies import multirev, multirev_config, verify
 from spaceopt.studies.trajectory import sample
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -25,7 +25,7 @@ CFG = yaml.safe_load((ROOT / "config" / "studies" / "multirev.yaml").read_text()
 
 @pytest.fixture(scope="module")
 def e1():
-    tr = multirev.transfer_from_config(CFG, "e1")
+    tr = multirev_config.transfer_from_config(CFG, "e1")
     lp = chain.solve_lp(tr)
     tmin = chain.solve_tmin(lp)
     ot = chain.solve_ot(lp, 15.0)

@@ -10,6 +10,7 @@ import yaml
 from spaceopt.errors import ConfigError
 from spaceopt.indirect import chain, free_time as ft
 from spaceopt.studies import perturbed as P
+from spaceopt.studies import perturbed_config as C
 from spaceopt.studies import perturbed_report as R
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -74,9 +75,9 @@ def test_unknown_model_and_case():
 
 
 def test_scan_dates_and_warm_start_order():
-    dates = P.scan_dates(PC["e6"])
+    dates = C.scan_dates(PC["e6"])
     assert len(dates) == 31 and dates[0] == "2021-05-01T12:00:00" and dates[-1] == "2021-05-31T12:00:00"
-    pairs = P.scan_order(dates, PC["cases"]["e5"]["epoch_utc"])
+    pairs = C.scan_order(dates, PC["cases"]["e5"]["epoch_utc"])
     assert len(pairs) == 30                                  # every date but the anchor
     solved = {PC["cases"]["e5"]["epoch_utc"]}
     for d, src in pairs:                                     # each source is solved before use
@@ -84,19 +85,19 @@ def test_scan_dates_and_warm_start_order():
         assert abs(int(d[8:10]) - int(src[8:10])) == 1
         solved.add(d)
     with pytest.raises(ConfigError):
-        P.scan_order(dates, "2021-06-01T12:00:00")
+        C.scan_order(dates, "2021-06-01T12:00:00")
     with pytest.raises(ConfigError, match="step_days"):
-        P.scan_dates({**PC["e6"], "step_days": 0})
+        C.scan_dates({**PC["e6"], "step_days": 0})
 
 
 def test_scan_start_from_names_scan_dates_without_cycles():
     e6 = {**PC["e6"], "start_from": {"2021-05-19": "2021-05-18", "2021-05-18": "2021-05-17"}}
-    assert P.scan_start_from(e6) == e6["start_from"]
-    assert P.scan_start_from({**PC["e6"], "start_from": None}) == {}
+    assert C.scan_start_from(e6) == e6["start_from"]
+    assert C.scan_start_from({**PC["e6"], "start_from": None}) == {}
     with pytest.raises(ConfigError, match=r"start_from\.2021-05-19.*2021-06-01"):
-        P.scan_start_from({**PC["e6"], "start_from": {"2021-05-19": "2021-06-01"}})
+        C.scan_start_from({**PC["e6"], "start_from": {"2021-05-19": "2021-06-01"}})
     with pytest.raises(ConfigError, match="cycle"):
-        P.scan_start_from({**PC["e6"], "start_from": {"2021-05-19": "2021-05-18", "2021-05-18": "2021-05-19"}})
+        C.scan_start_from({**PC["e6"], "start_from": {"2021-05-19": "2021-05-18", "2021-05-18": "2021-05-19"}})
 
 
 def _with_e6(**e6):
@@ -104,28 +105,28 @@ def _with_e6(**e6):
 
 
 def test_scan_sources_follow_start_from_then_the_warm_start_route():
-    assert P.scan_source(PC, "2021-05-20") == "unperturbed"
-    assert P.scan_source(PC, "2021-05-18") == PC["e6"]["start_from"]["2021-05-18"]
+    assert C.scan_source(PC, "2021-05-20") == "unperturbed"
+    assert C.scan_source(PC, "2021-05-18") == PC["e6"]["start_from"]["2021-05-18"]
     chain = _with_e6(warm_start="neighbour", start_from=None)
-    assert P.scan_source(chain, "2021-05-12") == "2021-05-11"       # outward from the 9 May anchor
-    assert P.scan_source(chain, "2021-05-03") == "2021-05-04"
-    assert P.scan_source(chain, "2021-05-09") is None                 # the anchor: the E5 solve
+    assert C.scan_source(chain, "2021-05-12") == "2021-05-11"       # outward from the 9 May anchor
+    assert C.scan_source(chain, "2021-05-03") == "2021-05-04"
+    assert C.scan_source(chain, "2021-05-09") is None                 # the anchor: the E5 solve
 
 
 def test_skipped_e6_dates_are_left_out_unless_a_date_that_is_run_starts_from_them():
-    assert len(P.scan_run_dates(PC)) == 31
-    run = P.scan_run_dates(_with_e6(skip_dates=["2021-05-20", "2021-05-31"]))
+    assert len(C.scan_run_dates(PC)) == 31
+    run = C.scan_run_dates(_with_e6(skip_dates=["2021-05-20", "2021-05-31"]))
     assert len(run) == 29 and "2021-05-20" not in run and "2021-05-31" not in run
     with pytest.raises(ConfigError, match=r"skip_dates.*2021-06-01.*not a date of the scan"):
-        P.scan_run_dates(_with_e6(skip_dates=["2021-06-01"]))
+        C.scan_run_dates(_with_e6(skip_dates=["2021-06-01"]))
     # 18 May starts from 17 May (start_from): 17 May alone cannot go, both together can
     with pytest.raises(ConfigError, match=r"skip_dates.*2021-05-17.*2021-05-18 starts from it"):
-        P.scan_run_dates(_with_e6(skip_dates=["2021-05-17"]))
-    assert len(P.scan_run_dates(_with_e6(skip_dates=["2021-05-17", "2021-05-18", "2021-05-19"]))) == 28
+        C.scan_run_dates(_with_e6(skip_dates=["2021-05-17"]))
+    assert len(C.scan_run_dates(_with_e6(skip_dates=["2021-05-17", "2021-05-18", "2021-05-19"]))) == 28
     # by neighbours, leaving out a date cuts the chain beyond it
     with pytest.raises(ConfigError, match=r"2021-05-30.*2021-05-31 starts from it"):
-        P.scan_run_dates(_with_e6(warm_start="neighbour", start_from=None, skip_dates=["2021-05-30"]))
-    assert len(P.scan_run_dates(_with_e6(warm_start="neighbour", start_from=None, skip_dates=["2021-05-31"]))) == 30
+        C.scan_run_dates(_with_e6(warm_start="neighbour", start_from=None, skip_dates=["2021-05-30"]))
+    assert len(C.scan_run_dates(_with_e6(warm_start="neighbour", start_from=None, skip_dates=["2021-05-31"]))) == 30
 
 
 def test_the_e6_summary_and_paper_text_name_the_dates_left_out():
@@ -490,34 +491,34 @@ def test_path_arcs_per_model_reaches_the_shooting_problem_and_is_checked():
 
 
 def test_perturb_at_eps_is_read_and_checked():
-    assert P.perturb_at_eps(PC, "e7") == PC["cases"]["e7"]["perturb_at_eps"]
-    assert P.perturb_at_eps(PC, "e7", "model_step_at_eps") == PC["cases"]["e7"]["model_step_at_eps"]
-    assert P.perturb_at_eps(PC, "e9", "model_step_at_eps") is None
-    assert P.perturb_at_eps(PC, "e5") is None
+    assert C.perturb_at_eps(PC, "e7") == PC["cases"]["e7"]["perturb_at_eps"]
+    assert C.perturb_at_eps(PC, "e7", "model_step_at_eps") == PC["cases"]["e7"]["model_step_at_eps"]
+    assert C.perturb_at_eps(PC, "e9", "model_step_at_eps") is None
+    assert C.perturb_at_eps(PC, "e5") is None
     bad = copy.deepcopy(PC)
     bad["cases"]["e7"]["perturb_at_eps"] = PC["numerics"]["eps_final"] / 2
     with pytest.raises(ConfigError, match=r"perturbed\.cases\.e7\.perturb_at_eps"):
-        P.perturb_at_eps(bad, "e7")
+        C.perturb_at_eps(bad, "e7")
     bad["cases"]["e7"]["perturb_at_eps"] = "big"
     with pytest.raises(ConfigError, match=r"perturbed\.cases\.e7\.perturb_at_eps"):
-        P.perturb_at_eps(bad, "e7")
+        C.perturb_at_eps(bad, "e7")
     bad["cases"]["e7"]["model_step_at_eps"] = 2.0
     with pytest.raises(ConfigError, match=r"perturbed\.cases\.e7\.model_step_at_eps"):
-        P.perturb_at_eps(bad, "e7", "model_step_at_eps")
+        C.perturb_at_eps(bad, "e7", "model_step_at_eps")
 
 
 
 def test_switching_is_read_and_refuses_the_options_of_the_smoothed_route():
     """Case option switching (smoothed | exact): exact refuses a smoothing eps, multiple shooting
     and, for E8, counts moved from the previous one; one-line errors naming the key."""
-    assert P.case_switching(PC, "e9") == PC["cases"]["e9"].get("switching", "smoothed")
+    assert C.case_switching(PC, "e9") == PC["cases"]["e9"].get("switching", "smoothed")
     ok = copy.deepcopy(PC)
     for key in ("perturb_at_eps", "model_step_at_eps", "path_arcs", "model_step"):
         ok["cases"]["e8"].pop(key, None)
     ok["cases"]["e8"]["switching"] = "exact"
-    assert P.case_switching(ok, "e8") == "exact"
-    assert P.e8_smoothing(ok)["switching"] == "exact"
-    text = R.e8_route_text("chain", P.e8_smoothing(ok), [])
+    assert C.case_switching(ok, "e8") == "exact"
+    assert C.e8_smoothing(ok)["switching"] == "exact"
+    text = R.e8_route_text("chain", C.e8_smoothing(ok), [])
     assert "exact bang-bang problem" in text and f"varepsilon={R.latex_number(1e-2)}" in text
     cases = [("switching", "bang", r"perturbed\.cases\.e8\.switching"),
              ("perturb_at_eps", 1e-2, r"perturbed\.cases\.e8\.perturb_at_eps"),
@@ -526,11 +527,11 @@ def test_switching_is_read_and_refuses_the_options_of_the_smoothed_route():
         bad = copy.deepcopy(ok)
         bad["cases"]["e8"][key] = value
         with pytest.raises(ConfigError, match=match):
-            P.case_switching(bad, "e8")
+            C.case_switching(bad, "e8")
     bad = copy.deepcopy(ok)
     bad["e8"]["count_start"] = "previous"
     with pytest.raises(ConfigError, match=r"perturbed\.e8\.count_start"):
-        P.case_switching(bad, "e8")
+        C.case_switching(bad, "e8")
 
 
 def test_sensitivity_rtol_needs_the_exact_map_and_reaches_the_shooting_problems():
@@ -563,14 +564,14 @@ def test_model_from_names_the_start_of_a_warm_start_and_is_checked():
     leaves out the models it skips; the report says where a step starts; bad values are one-line
     errors naming the key."""
     models = PC["cases"]["e8"]["models"]
-    assert [P.case_start_model(PC, "e8", m) for m in models] == [None, *models[:-1]]
-    assert P.case_route(PC, "e8", "g44_moon_sun") == models
-    assert all(s is None for s in P.case_start_models(PC)["e5"].values())     # model_start: chain
+    assert [C.case_start_model(PC, "e8", m) for m in models] == [None, *models[:-1]]
+    assert C.case_route(PC, "e8", "g44_moon_sun") == models
+    assert all(s is None for s in C.case_start_models(PC)["e5"].values())     # model_start: chain
     pc = copy.deepcopy(PC)
     pc["cases"]["e8"]["model_from"] = {"g44_moon_sun": "j2"}
-    assert P.case_start_model(pc, "e8", "g44_moon_sun") == "j2" and P.case_start_model(pc, "e8", "g44") == "j2"
-    assert P.case_route(pc, "e8", "g44_moon_sun") == ["unperturbed", "j2", "g44_moon_sun"]
-    steps = {s["model"]: s for s in P.e8_model_steps(pc)}
+    assert C.case_start_model(pc, "e8", "g44_moon_sun") == "j2" and C.case_start_model(pc, "e8", "g44") == "j2"
+    assert C.case_route(pc, "e8", "g44_moon_sun") == ["unperturbed", "j2", "g44_moon_sun"]
+    steps = {s["model"]: s for s in C.e8_model_steps(pc)}
     assert steps["g44"]["from"] is None and steps["g44_moon_sun"]["from"] == "j2"
     assert r"to 4$\times$4 + Moon + Sun from the $J_2$ extremal (" in R.e8_step_text(steps["g44_moon_sun"])
     for value, match in (({"moon": "j2"}, r"perturbed\.cases\.e8\.model_from\.moon='j2'"),
@@ -579,17 +580,17 @@ def test_model_from_names_the_start_of_a_warm_start_and_is_checked():
                          ({"unperturbed": "j2"}, r"model_from\.unperturbed")):
         pc["cases"]["e8"]["model_from"] = value
         with pytest.raises(ConfigError, match=match):
-            P.case_start_models(pc)
+            C.case_start_models(pc)
     pc["cases"]["e5"]["model_from"] = {"g44_moon_sun": "unperturbed"}      # E5 chains every model
     with pytest.raises(ConfigError, match=r"perturbed\.cases\.e5\.model_from.*model_start: chain"):
-        P.case_start_model(pc, "e5", "g44_moon_sun")
+        C.case_start_model(pc, "e5", "g44_moon_sun")
 
 
 def test_corrector_is_read_and_reaches_the_chain_only():
     """Case option corrector (newton | chord): Newton's leaves the followers' defaults; chord goes
     into the options of the chain from the zero guess, not into the warm starts' (they keep
     Newton's); a bad value is a one-line error naming the key."""
-    assert P.case_corrector(PC, "e8") == PC["cases"]["e8"].get("corrector", "newton")
+    assert C.case_corrector(PC, "e8") == PC["cases"]["e8"].get("corrector", "newton")
     assert P.chain_options(PC, "e8") is None
     pc = copy.deepcopy(PC)
     pc["cases"]["e8"]["corrector"] = "chord"
@@ -770,14 +771,14 @@ def test_e8_runs_leave_out_the_skipped_counts_and_check_them():
     e8 = {"n_rev": [200, 250, 300], "run_n_rev": [200, 250, 300], "run_models": ["unperturbed", "g44_moon_sun"],
           "skip_n_rev": {"g44_moon_sun": [300]}}
     pc = {**PC, "e8": e8}
-    assert P.e8_runs(pc) == [("unperturbed", 200.0), ("unperturbed", 250.0), ("unperturbed", 300.0),
+    assert C.e8_runs(pc) == [("unperturbed", 200.0), ("unperturbed", 250.0), ("unperturbed", 300.0),
                              ("g44_moon_sun", 200.0), ("g44_moon_sun", 250.0)]
-    assert len(P.e8_runs({**PC, "e8": {**e8, "skip_n_rev": None}})) == 6
-    assert len(P.e8_runs({**PC, "e8": {**e8, "skip_n_rev": {"g44_moon_sun": [350]}}})) == 6   # not run anyway
+    assert len(C.e8_runs({**PC, "e8": {**e8, "skip_n_rev": None}})) == 6
+    assert len(C.e8_runs({**PC, "e8": {**e8, "skip_n_rev": {"g44_moon_sun": [350]}}})) == 6   # not run anyway
     with pytest.raises(ConfigError, match=r"skip_n_rev\.j2"):
-        P.e8_runs({**PC, "e8": {**e8, "skip_n_rev": {"j2": [300]}}})
+        C.e8_runs({**PC, "e8": {**e8, "skip_n_rev": {"j2": [300]}}})
     with pytest.raises(ConfigError, match=r"run_n_rev.*275"):
-        P.e8_runs({**PC, "e8": {**e8, "run_n_rev": [275]}})
+        C.e8_runs({**PC, "e8": {**e8, "run_n_rev": [275]}})
 
 
 def test_e8_range_rows_say_which_counts_they_cover():
@@ -801,11 +802,11 @@ def test_e8_range_rows_say_which_counts_they_cover():
 def test_paper_section_says_how_the_e8_counts_start():
     """The §4.2 paper text follows perturbed.e8.count_start (independent chains or n → n) and
     writes the ε values of the E8 route from the config."""
-    smoothing = P.e8_smoothing(PC)
+    smoothing = C.e8_smoothing(PC)
     assert smoothing["eps_final"] == PC["numerics"]["eps_final"]
     assert smoothing["perturb_at_eps"] == PC["cases"]["e8"]["perturb_at_eps"]
     assert smoothing["model_step_at_eps"] == smoothing["eps_final"]       # E8 names none
-    steps = P.e8_model_steps(PC)
+    steps = C.e8_model_steps(PC)
     assert [s["model"] for s in steps] == PC["cases"]["e8"]["models"][2:]
     chain_text = R.paper_section([], {}, None, {}, [], e8_count_start="chain", smoothing=smoothing, e8_steps=steps)
     previous_text = R.paper_section([], {}, None, {}, [], e8_count_start="previous", smoothing=smoothing,
@@ -814,7 +815,7 @@ def test_paper_section_says_how_the_e8_counts_start():
     assert "next smaller one" not in chain_text
     assert "next smaller one" in previous_text
     assert "skip" not in chain_text
-    skipped = P.e8_skipped(PC)       # the config's skip_n_rev, as the paper names it
+    skipped = C.e8_skipped(PC)       # the config's skip_n_rev, as the paper names it
     assert skipped == [(m, float(n)) for m, ns in PC["e8"]["skip_n_rev"].items() for n in ns]
     text = R.paper_section([], {}, None, {}, [], e8_count_start="chain", smoothing=smoothing, e8_steps=steps,
                            e8_skipped=[("g44_moon_sun", 450.0)])
@@ -1325,23 +1326,23 @@ def test_the_e6_latex_tables_add_the_dates_where_another_familys_extremal_is_hea
 
 
 def test_the_existence_runs_leave_out_the_skipped_models_and_name_a_bad_one():
-    runs = P.existence_runs(PC)
+    runs = C.existence_runs(PC)
     assert ("e7", "unperturbed") in runs and ("e7", "j2") in runs and ("e7", "g44_moon_sun") in runs
     assert ("e9", "g44_moon_sun") in runs and runs.index(("e5", "unperturbed")) == 0
     bad = copy.deepcopy(PC)
     bad["existence"]["skip"] = {"e7": ["g44_moon_sun"]}
-    assert ("e7", "g44_moon_sun") not in P.existence_runs(bad)
+    assert ("e7", "g44_moon_sun") not in C.existence_runs(bad)
     bad["existence"]["skip"] = {"e7": ["g44"]}
     with pytest.raises(ConfigError, match=r"perturbed.existence.skip.e7='g44'.*not a model of the check"):
-        P.existence_runs(bad)
+        C.existence_runs(bad)
     bad["existence"] = {"cases": [e for e in PC["existence"]["cases"] if e != "e7"], "from_ot": {"cases": ["e7"]}}
     with pytest.raises(ConfigError, match=r"from_ot.cases='e7'"):
-        P.existence_runs(bad)
+        C.existence_runs(bad)
 
 
 def test_a_model_carries_over_another_models_bound_only_where_both_are_checked_from_ot():
     """existence.bound_from (E7: the full model carries the J2 bound over): each pair is checked."""
-    assert P.existence_bound_from(PC) == {("e7", "g44_moon_sun"): "j2"}
+    assert C.existence_bound_from(PC) == {("e7", "g44_moon_sun"): "j2"}
     for bound_from, match in (({"e9": {"g44_moon_sun": "j2"}}, r"bound_from.e9=.*not a case of .*from_ot"),
                               ({"e7": {"g44_moon_sun": "unperturbed"}}, r"bound_from.e7.g44_moon_sun='unperturbed'"),
                               ({"e7": {"g44": "j2"}}, r"bound_from.e7.g44='g44'.*not a perturbed model"),
@@ -1349,12 +1350,12 @@ def test_a_model_carries_over_another_models_bound_only_where_both_are_checked_f
         bad = copy.deepcopy(PC)
         bad["existence"]["bound_from"] = bound_from
         with pytest.raises(ConfigError, match=match):
-            P.existence_bound_from(bad)
-    assert P.existence_bound_from({**PC, "run": ["e9"]}) == {}         # E7 not run (the quick profile)
+            C.existence_bound_from(bad)
+    assert C.existence_bound_from({**PC, "run": ["e9"]}) == {}         # E7 not run (the quick profile)
     bad = copy.deepcopy(PC)
     bad["existence"]["skip"] = {"e7": ["j2"]}                      # the source left out of the check
     with pytest.raises(ConfigError, match=r"bound_from.e7.g44_moon_sun='j2'"):
-        P.existence_bound_from(bad)
+        C.existence_bound_from(bad)
 
 
 def test_the_exact_e8_profile_validates_and_selects_the_exact_route():
@@ -1370,8 +1371,8 @@ def test_the_exact_e8_profile_validates_and_selects_the_exact_route():
     pc = copy.deepcopy(PC)
     update_config(pc, profile)
     jsonschema.validate(pc, yaml.safe_load((ROOT / "config/schema/perturbed.schema.yaml").read_text()))
-    assert P.case_switching(pc, "e8") == "exact"
-    steps = {step["model"]: step for step in P.e8_model_steps(pc)}
+    assert C.case_switching(pc, "e8") == "exact"
+    steps = {step["model"]: step for step in C.e8_model_steps(pc)}
     assert all(step["arcs"] == 1 for step in steps.values()) and steps["g44"]["path"] == "tau"
     assert steps["g44_moon_sun"]["path"] == "arclength" and steps["g44_moon_sun"]["step_rcond"] > 0
     kw = P.warm_start_kwargs(pc, "e8", "g44_moon_sun", n_rev=500)
@@ -1383,11 +1384,11 @@ def test_the_exact_e8_profile_validates_and_selects_the_exact_route():
     assert tr.sensitivity_rtol == over["sensitivity_rtol"] > tr.path_rtol == PC["cases"]["e8"]["path_rtol"]["g44_moon_sun"]
     chain_tr = P.transfer_from_config(pc, "e8", "unperturbed", n_rev=200)  # the chain's looser paths
     assert chain_tr.path_rtol == over["path_rtol"]["unperturbed"] > P.transfer_from_config(pc, "e8", "j2").path_rtol
-    assert P.case_route(pc, "e8", "g44_moon_sun") == ["unperturbed", "j2", "g44_moon_sun"]   # 4x4 beside it
+    assert C.case_route(pc, "e8", "g44_moon_sun") == ["unperturbed", "j2", "g44_moon_sun"]   # 4x4 beside it
     j2 = P.warm_start_kwargs(pc, "e8", "j2")                 # J2 switched on in tau, chord steps
     assert j2["model_path"] == "tau" and j2["options"].corrector == "chord"
-    assert P.e8_runs(pc) == [(m, float(n)) for m in pc["e8"]["run_models"] for n in pc["e8"]["run_n_rev"]]  # 450 too
-    text = R.e8_route_text("chain", P.e8_smoothing(pc), P.e8_model_steps(pc))
+    assert C.e8_runs(pc) == [(m, float(n)) for m in pc["e8"]["run_models"] for n in pc["e8"]["run_n_rev"]]  # 450 too
+    text = R.e8_route_text("chain", C.e8_smoothing(pc), C.e8_model_steps(pc))
     assert "exact bang-bang problem" in text and r"4$\times$4 + Moon + Sun from the $J_2$ extremal (in arclength" in text
 
 

@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 from spaceopt.indirect.continuation import ContinuationOptions
-from spaceopt.studies import scan_families as F
+from spaceopt.studies import perturbed_config as C, scan_families as F
 
 ROOT = Path(__file__).resolve().parents[1]
 PT = yaml.safe_load((ROOT / "config/studies/perturbed.yaml").read_text())["perturbed"]
@@ -25,14 +25,14 @@ def _pc(**e6):
 
 def test_links_join_neighbouring_run_dates_both_ways_except_where_the_scan_started_one_from_the_other():
     pc = _pc(start_from={"2021-05-03": "2021-05-02"}, skip_dates=["2021-05-05"])
-    assert F.start_pairs(pc) == [("2021-05-02", "2021-05-03")]
-    pairs = F.link_pairs(pc)
+    assert C.start_pairs(pc) == [("2021-05-02", "2021-05-03")]
+    pairs = C.link_pairs(pc)
     assert ("2021-05-02", "2021-05-03") not in pairs and ("2021-05-03", "2021-05-02") in pairs
     assert ("2021-05-01", "2021-05-02") in pairs and ("2021-05-02", "2021-05-01") in pairs
     assert not any("2021-05-05" in p for p in pairs) and len(pairs) == 5
-    forward = F.link_pairs(_pc(links={**SETTINGS, "directions": "forward"}))
+    forward = C.link_pairs(_pc(links={**SETTINGS, "directions": "forward"}))
     assert forward == [(f"2021-05-0{i}", f"2021-05-0{i + 1}") for i in range(1, 5)]
-    assert F.link_pairs(_pc(links=None)) == []
+    assert C.link_pairs(_pc(links=None)) == []
 
 
 def _row(a, b, status, m=None, t=None, scan_m=960.0, scan_t=60.0):

@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from spaceopt.indirect.chain import Solution
-from spaceopt.studies import scan_walks as W
+from spaceopt.studies import perturbed_config as C, scan_walks as W
 
 ROOT = Path(__file__).resolve().parents[1]
 PT = yaml.safe_load((ROOT / "config/studies/perturbed.yaml").read_text())["perturbed"]
@@ -26,13 +26,13 @@ def _pc(max_days=31, **e6):
 
 def test_a_walk_goes_on_past_its_link_away_from_where_it_came_and_at_most_max_days():
     pc = _pc()
-    assert W.walk_dates(pc, "2021-05-02", "2021-05-03") == ["2021-05-04", "2021-05-05", "2021-05-06"]
-    assert W.walk_dates(pc, "2021-05-04", "2021-05-03") == ["2021-05-02", "2021-05-01"]
-    assert W.walk_dates(pc, "2021-05-02", "2021-05-01") == []
-    assert W.walk_dates(_pc(max_days=2), "2021-05-01", "2021-05-02") == ["2021-05-03", "2021-05-04"]
+    assert C.walk_dates(pc, "2021-05-02", "2021-05-03") == ["2021-05-04", "2021-05-05", "2021-05-06"]
+    assert C.walk_dates(pc, "2021-05-04", "2021-05-03") == ["2021-05-02", "2021-05-01"]
+    assert C.walk_dates(pc, "2021-05-02", "2021-05-01") == []
+    assert C.walk_dates(_pc(max_days=2), "2021-05-01", "2021-05-02") == ["2021-05-03", "2021-05-04"]
     skipped = _pc(skip_dates=["2021-05-04"])
-    assert W.walk_dates(skipped, "2021-05-02", "2021-05-03") == ["2021-05-05", "2021-05-06"]
-    assert W.walk_settings(_pc(links=None)) is None and W.walk_settings(_pc()) == {"max_days": 31}
+    assert C.walk_dates(skipped, "2021-05-02", "2021-05-03") == ["2021-05-05", "2021-05-06"]
+    assert C.walk_settings(_pc(links=None)) is None and C.walk_settings(_pc()) == {"max_days": 31}
 
 
 def _sol(date, z):

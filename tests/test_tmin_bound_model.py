@@ -12,10 +12,10 @@ import yaml
 
 from spaceopt import ephemeris
 from spaceopt.errors import ConfigError
-from spaceopt.indirect import chain, tmin_from_ot
+from spaceopt.indirect import tmin_from_ot
 from spaceopt.indirect.flow import Model, field
 from spaceopt.indirect.shooting import residual
-from spaceopt.studies import existence as E, multirev, perturbed as P, verify
+from spaceopt.studies import existence as E, multirev_config, perturbed as P, verify
 
 ROOT = Path(__file__).resolve().parents[1]
 CFG = yaml.safe_load((ROOT / "config" / "studies" / "multirev.yaml").read_text())["multirev"]
@@ -23,7 +23,7 @@ EPOCH = "2021-05-09T12:00:00"
 
 
 def _e1(geopotential):
-    tr = multirev.transfer_from_config(CFG, "e1")
+    tr = multirev_config.transfer_from_config(CFG, "e1")
     return dataclasses.replace(tr, perturbations={"geopotential": geopotential}, epoch_utc=EPOCH)
 
 

@@ -4,7 +4,7 @@ import re
 from pathlib import Path
 
 import yaml
-from spaceopt.studies import perturbed as P, scan_families as F, scan_walks as W
+from spaceopt.studies import perturbed_config as C
 from workflow_skeleton import planned_rules, repo_snakemake as smk
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -49,7 +49,7 @@ def test_full_reproduction_plans_e6_dates_from_the_unperturbed_solve_and_e8_coun
             assert "results/perturbed/e5/unperturbed.json" in inputs
             assert not any(i.startswith("results/perturbed/e6/") for i in inputs)
     links = planned_inputs(out, "perturbed_e6_link")
-    assert len(links) == jobs["perturbed_e6_link"] == len(F.link_pairs(PT)) == 2 * 30 - len(F.start_pairs(PT))
+    assert len(links) == jobs["perturbed_e6_link"] == len(C.link_pairs(PT)) == 2 * 30 - len(C.start_pairs(PT))
     for output, inputs in links.items():
         a, b = Path(output).stem.split("_to_")
         assert inputs[:2] == [f"results/perturbed/e6/{a}.json", f"results/perturbed/e6/{b}.json"]
@@ -58,7 +58,7 @@ def test_full_reproduction_plans_e6_dates_from_the_unperturbed_solve_and_e8_coun
     assert len(walks) == len(links)
     for output, inputs in walks.items():
         a, b = Path(output).stem.split("_to_")
-        ahead = W.walk_dates(PT, a, b)
+        ahead = C.walk_dates(PT, a, b)
         assert inputs[:2 + len(ahead)] == [f"results/perturbed/e6_links/{a}_to_{b}.json"] + [
             f"results/perturbed/e6/{d}.json" for d in [b] + ahead]
         assert all((d > b) == (b > a) for d in ahead)     # on past b, away from a
@@ -73,7 +73,7 @@ def test_full_reproduction_plans_e6_dates_from_the_unperturbed_solve_and_e8_coun
     for n in skip.get(last, ()):
         assert f"results/perturbed/e8/{last}_n{n:g}.json" not in e8
     for m in run_models:
-        if m == models[0] and P.e8_count_start(PT) == "chain":
+        if m == models[0] and C.e8_count_start(PT) == "chain":
             for n in ns:                             # independent chains from the zero guess
                 inputs = e8[f"results/perturbed/e8/{m}_n{n:g}.json"]
                 assert not any(i.startswith("results/perturbed/e8/") for i in inputs)
@@ -134,8 +134,8 @@ def test_the_force_shares_are_planned_for_every_perturbed_solve_of_the_listed_ca
     shares = planned_inputs(out, "perturbed_force_shares")
     cases = PT["force_shares"]["cases"]
     assert {"e5", "e6", "e8"} <= set(cases)
-    expected = {f"results/perturbed/e6/{d}.shares.json" for d in P.scan_run_dates(PT)}
-    expected |= {f"results/perturbed/e8/{m}_n{n:g}.shares.json" for m, n in P.e8_runs(PT) if PT["models"][m]}
+    expected = {f"results/perturbed/e6/{d}.shares.json" for d in C.scan_run_dates(PT)}
+    expected |= {f"results/perturbed/e8/{m}_n{n:g}.shares.json" for m, n in C.e8_runs(PT) if PT["models"][m]}
     assert "results/perturbed/e8/g44_moon_sun_n500.shares.json" in expected
     for c in set(cases) - {"e6", "e8"}:
         expected |= {f"results/perturbed/{c}/{m}.shares.json" for m in PT["cases"][c]["models"] if PT["models"][m]}
@@ -153,9 +153,9 @@ def test_the_heavier_extremals_of_the_envelope_are_saved_verified_and_split_by_f
     assert rc == 0, out[-2000:]
     job = planned_inputs(out, "perturbed_e6_envelope_extremals")["results/perturbed/e6_envelope_extremals.csv"]
     assert "results/perturbed/e6_envelope.csv" in job
-    assert sum(i.startswith("results/perturbed/e6_links/") for i in job) == len(F.link_pairs(PT))
-    assert sum(i.startswith("results/perturbed/e6_walks/") for i in job) == len(F.link_pairs(PT))
-    assert sum(i.startswith("results/perturbed/e6/") for i in job) == len(P.scan_run_dates(PT))
+    assert sum(i.startswith("results/perturbed/e6_links/") for i in job) == len(C.link_pairs(PT))
+    assert sum(i.startswith("results/perturbed/e6_walks/") for i in job) == len(C.link_pairs(PT))
+    assert sum(i.startswith("results/perturbed/e6/") for i in job) == len(C.scan_run_dates(PT))
     for rule in ("perturbed_figures", "perturbed_paper_section"):
         assert any("results/perturbed/e6_envelope_extremals.csv" in inputs for inputs in planned_inputs(out, rule).values())
 
@@ -182,7 +182,7 @@ def test_the_report_pass_leaves_out_the_failed_solves_and_those_that_start_from_
     assert rc == 0, out[-2000:]
     dates = {Path(o).stem for o in planned_inputs(out, "perturbed_e6_date")}
     left = {"2021-05-17", "2021-05-18", "2021-05-19"}            # 05-18 starts from 05-17, 05-19 from 05-18
-    assert dates == set(P.scan_run_dates(PT)) - left
+    assert dates == set(C.scan_run_dates(PT)) - left
     e8 = {Path(o).stem for o in planned_inputs(out, "perturbed_e8")}
     assert "unperturbed_n450" in e8 and "j2_n400" in e8 and not {"j2_n450", "g44_n450"} & e8
     assert planned_rules(out)["perturbed_paper_section"] == 1

@@ -33,11 +33,11 @@ from spaceopt.indirect import chain, free_time as ft, hamiltonians as hm
 from spaceopt.indirect.flow import field, ot_delta
 from spaceopt.indirect.shooting import initial_state
 from spaceopt.indirect.continuation import ContinuationOptions
-from spaceopt.studies import multirev, perturbed as P
+from spaceopt.studies import multirev_config, perturbed as P
 
 QUIET = ContinuationOptions(verbose=False)
 cfg = yaml.safe_load(Path("config/studies/multirev.yaml").read_text())["multirev"]
-tr = multirev.transfer_from_config(cfg, "e1")
+tr = multirev_config.transfer_from_config(cfg, "e1")
 ot = chain.solve_ot(chain.solve_lp(tr, QUIET), 15.0, QUIET)
 tr_p = dataclasses.replace(tr, perturbations={"geopotential": {"degree": 4, "order": 4}, "earth_angle": "era"},
                            epoch_utc="2021-05-09T12:00:00")

@@ -14,19 +14,29 @@ compile options: jax refuses those on a jit nested in another, so ``jax.jit(jax.
 (benchmarks/sweep.py) would fail.
 """
 import os
+import sys
 
 XLA_CPU_FLAG = "--xla_cpu_use_fusion_emitters=false"
 if "xla_cpu_use_fusion_emitters" not in os.environ.get("XLA_FLAGS", ""):
     os.environ["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} {XLA_CPU_FLAG}".strip()
 
-import jax  # noqa: E402
-
-jax.config.update("jax_enable_x64", True)
-# Persistent XLA compilation cache: every Snakemake job is a new process, and the shooting maps
-# take ~10 s each to compile; the cache makes that a one-time cost per machine.
-jax.config.update("jax_compilation_cache_dir",
-                  os.environ.get("SPACEOPT_JAX_CACHE", os.path.expanduser("~/.cache/spaceopt/jax")))
-jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
+# JAX's settings for the package: float64, and the persistent XLA compilation cache (every
+# Snakemake job is a new process, and the shooting maps take ~10 s each to compile; the cache makes
+# that a one-time cost per machine). Where JAX is not imported yet they go into the environment
+# variables it reads its defaults from when it is, so that importing spaceopt does not import JAX:
+# the Snakefile's planning and the report jobs never use it, and JAX's import costs 0.5-0.6 s of
+# CPU in each such process.
+JAX_SETTINGS = {
+    "jax_enable_x64": True,
+    "jax_compilation_cache_dir": os.environ.get("SPACEOPT_JAX_CACHE", os.path.expanduser("~/.cache/spaceopt/jax")),
+    "jax_persistent_cache_min_compile_time_secs": 1.0,
+}
+if "jax" in sys.modules:
+    for _name, _value in JAX_SETTINGS.items():
+        sys.modules["jax"].config.update(_name, _value)
+else:
+    for _name, _value in JAX_SETTINGS.items():
+        os.environ[_name.upper()] = str(_value)
 
 from . import artifacts  # noqa: E402,F401  (fixes the code version of every artifact at import)
 

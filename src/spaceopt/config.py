@@ -4,9 +4,14 @@ Each study section is validated against ``config/schema/<study>.schema.yaml`` wi
 ``snakemake.utils.validate``; on failure, jsonschema's best match names the exact key path and
 the offending value. Physical checks (eccentricity < 1, positive thrust, dates inside the
 ephemeris, …) are done by the study modules and raise :class:`~spaceopt.errors.ConfigError`.
+
+One setting comes from the environment: ``SPACEOPT_THREADS``, the threads a Jacobian's columns
+are split over (:mod:`spaceopt.indirect.column_threads`). It is read here, without JAX, so that
+the workflow's glue (``workflow/scripts/_step.py``) can set it cheaply.
 """
 from __future__ import annotations
 
+import os
 from datetime import date, datetime
 from pathlib import Path
 
@@ -52,3 +57,18 @@ def validate_section(config: dict, name: str, schema_path) -> None:
         if isinstance(err.instance, (date, datetime)):   # YAML reads an unquoted 2021-05-20 as a date
             message += f' (quote it: "{err.instance.isoformat()}")'
         raise ConfigError(key, err.instance, message) from None
+
+
+THREADS_ENV = "SPACEOPT_THREADS"
+
+
+def threads() -> int:
+    """The number of threads a Jacobian's columns are split over (``SPACEOPT_THREADS``, ≥ 1)."""
+    raw = os.environ.get(THREADS_ENV, "1")
+    try:
+        k = int(raw)
+    except ValueError:
+        k = 0
+    if k < 1:
+        raise ConfigError(THREADS_ENV, raw, "expected a positive integer (threads per Jacobian)")
+    return k

@@ -1,6 +1,6 @@
 # Dissertation §4.1: minimum-power solves -> minimum-thrust existence checks -> minimum-fuel
 # continuation -> tables and figures (spec 02-multirev §3).
-from spaceopt.studies.multirev import check_config as _check_multirev
+from spaceopt.studies.multirev_config import check_config as _check_multirev
 
 check_section("multirev", _check_multirev)
 MR = config["multirev"]

@@ -13,11 +13,12 @@
 #   results/perturbed/existence.csv                     its table (E5, E7, E9)
 import os
 from spaceopt.studies.failed_solves import diagnosis, failures_sentence, left_out, without_failed
-from spaceopt.studies.perturbed import (case_start_model, case_start_models, e8_count_start, e8_model_steps,
-                                        e8_runs, e8_skipped, e8_smoothing, existence_bound_from, existence_from_ot,
-                                        existence_runs, scan_dates, scan_run_dates, scan_source)
-from spaceopt.studies.scan_families import link_pairs, link_settings, start_pairs
-from spaceopt.studies.scan_walks import walk_dates, walk_settings
+# the planning module imports no solver: every Snakemake run parses this file
+from spaceopt.studies.perturbed_config import (case_start_model, case_start_models, e8_count_start, e8_model_steps,
+                                               e8_runs, e8_skipped, e8_smoothing, existence_bound_from,
+                                               existence_from_ot, existence_runs, link_pairs, link_settings,
+                                               scan_dates, scan_run_dates, scan_source, start_pairs, walk_dates,
+                                               walk_settings)
 
 check_section("perturbed", physical=lambda pc: (scan_run_dates(pc), e8_runs(pc), existence_runs(pc),
                                                 existence_bound_from(pc), case_start_models(pc)))
@@ -60,7 +61,7 @@ def pt_config_for(case, model):
 def pt_warm_source(case, model):
     """The first model of a case's list is solved by the chain from the zero guess; every later
     model too when the case says model_start: chain (E5, E7), else by a warm start from the
-    previous model, or the one the case's model_from names (studies.perturbed.case_start_model;
+    previous model, or the one the case's model_from names (studies.perturbed_config.case_start_model;
     warm_start: the force-model blend, its fallbacks): E8 unperturbed -> J2 -> 4x4 -> 4x4 + Moon
     + Sun (the exact profile: the full model from J2), E9 J2 -> 4x4 -> 4x4 + Moon + Sun."""
     return case_start_model(PT, case, model)
@@ -150,7 +151,7 @@ E6_DATES = scan_run_dates(PT)           # checked once by check_section above (s
 
 
 def pt_e6_source(date):
-    """What a date warm-starts from (spaceopt.studies.perturbed.scan_source)."""
+    """What a date warm-starts from (spaceopt.studies.perturbed_config.scan_source)."""
     return scan_source(PT, date)
 
 

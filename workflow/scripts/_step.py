@@ -10,7 +10,7 @@ import sys
 import traceback
 
 from spaceopt.errors import SpaceoptError
-from spaceopt.indirect.column_threads import THREADS_ENV
+from spaceopt.config import THREADS_ENV
 
 
 def run_step(main, *args, **kwargs):

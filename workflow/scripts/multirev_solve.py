@@ -9,7 +9,7 @@ from _step import run_step  # noqa: E402
 from spaceopt import artifacts  # noqa: E402
 from spaceopt.errors import ConvergenceError  # noqa: E402
 from spaceopt.indirect import chain  # noqa: E402
-from spaceopt.studies import multirev  # noqa: E402
+from spaceopt.studies import multirev, multirev_config  # noqa: E402
 
 
 def main(sm):
@@ -19,12 +19,12 @@ def main(sm):
     artifacts.clear_failures(out)
     try:
         if rule == "multirev_lp":
-            tr = multirev.transfer_from_config(cfg, case)
+            tr = multirev_config.transfer_from_config(cfg, case)
             sol = chain.solve_lp(tr, label=f"{case}/lp")
             extra = {}
         elif rule == "multirev_tmin":
             lp = multirev.load(sm.input.lp)
-            tr = multirev.transfer_from_config(cfg, case, isp_s=sm.params.isp)
+            tr = multirev_config.transfer_from_config(cfg, case, isp_s=sm.params.isp)
             lp.transfer, lp.prm = tr, tr.params()
             sol = chain.solve_tmin(lp, label=f"{case}/tmin")
             extra = {}

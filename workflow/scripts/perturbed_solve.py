@@ -12,6 +12,7 @@ from spaceopt import artifacts  # noqa: E402
 from spaceopt.errors import ConvergenceError  # noqa: E402
 from spaceopt.indirect.continuation import resumed_wall_time  # noqa: E402
 from spaceopt.studies import perturbed as P  # noqa: E402
+from spaceopt.studies import perturbed_config as C  # noqa: E402
 
 
 def checkpoint_dir(out: Path, cfg: dict) -> Path:
@@ -52,7 +53,7 @@ def solve(sm, cfg, case, model, tr, label, warm_kw, fail):
                 lp, sol = P.solve_for(tr, label, bool(cc.get("lp_perturbed", False)),
                                       cc.get("homotopy_path", cfg["numerics"].get("homotopy_path", "arclength")),
                                       options=P.chain_options(cfg, case), blend_ref=cc.get("blend_ref"), route=route,
-                                      switching=P.case_switching(cfg, case))
+                                      switching=C.case_switching(cfg, case))
                 extra = {"continued_from": "chain", "route": route,
                          "lp": {k: lp.extra[k] for k in ("J_LP_m2s3", "dv_m_s", "tof_s")},
                          "lp_perturbed": lp.shooting.model.perturbed, **sol.extra}

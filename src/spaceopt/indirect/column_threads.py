@@ -24,34 +24,16 @@ JAX starts (``XLA_FLAGS=--xla_force_host_platform_device_count``), which a libra
 its callers, and would split y's integration the same way.
 
 The thread count: the environment variable ``SPACEOPT_THREADS`` (default 1: the single fused
-computation); the workflow sets it from a job's ``threads``.
+computation; :func:`spaceopt.config.threads`); the workflow sets it from a job's ``threads``.
 """
 from __future__ import annotations
 
 import math
-import os
 from concurrent.futures import ThreadPoolExecutor
 from functools import lru_cache
 
 import jax
 import jax.numpy as jnp
-
-from ..errors import ConfigError
-
-THREADS_ENV = "SPACEOPT_THREADS"
-
-
-def threads() -> int:
-    """The number of threads a Jacobian's columns are split over (``SPACEOPT_THREADS``, ≥ 1)."""
-    raw = os.environ.get(THREADS_ENV, "1")
-    try:
-        k = int(raw)
-    except ValueError:
-        k = 0
-    if k < 1:
-        raise ConfigError(THREADS_ENV, raw, "expected a positive integer (threads per Jacobian)")
-    return k
-
 
 @lru_cache(maxsize=None)
 def _pool(k: int) -> ThreadPoolExecutor:

@@ -176,9 +176,6 @@ def field(model: Model, K, y, tau, prm, delta=None):
     return g
 
 
-SWITCHINGS = ("smoothed", "exact")     # the throttle δ(S, ε) (3.3.2), or 1[S > 0] (.exact_switching)
-
-
 def has_bang_bang_throttle(model: Model) -> bool:
     """Whether ``model``'s throttle is a function of S alone, so that it can be fixed on the arcs
     of the exact map: a pure OT field (the LP → OT blend and the T_min problems are not)."""

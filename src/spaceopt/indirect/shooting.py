@@ -29,10 +29,11 @@ from functools import partial
 import jax
 import jax.numpy as jnp
 
+from ..config import threads
 from . import column_threads, hamiltonians as hm
-from .flow import (SWITCHINGS, Model, field, hamiltonian, has_bang_bang_throttle, params_at, propagate,
+from .flow import (Model, field, hamiltonian, has_bang_bang_throttle, params_at, propagate,
                    propagate_with_sensitivities, tmin_ot_tau)
-from .transfer import MAX_STEPS, PATH_RTOL, datum
+from .transfer import MAX_STEPS, PATH_RTOL, SWITCHINGS, datum
 
 COSTATE_NAMES = ("p_p", "p_ex", "p_ey", "p_ix", "p_iy", "p_LK", "p_t", "p_m")
 
@@ -133,7 +134,7 @@ def shoot(sh: Shooting, z, tau, prm, rtol=None, atol=None):
     tau = datum(tau)
     rtol, atol = sh.rtol if rtol is None else rtol, sh.atol if atol is None else atol
     tols = (rtol, atol, *sensitivity_tolerances(sh, rtol, atol)) if sh.switching == "exact" else (rtol, atol)
-    k = column_threads.threads()
+    k = threads()
     if k > 1 and not isinstance(z, jax.core.Tracer):
         return _map(sh, "shoot_threaded")(sh, z, tau, prm, *tols, k)
     return _map(sh, "shoot")(sh, z, tau, prm, *tols)

@@ -21,6 +21,7 @@ from ..errors import ConfigError
 MAX_STEPS = 400_000     # integration steps per propagation unless a study caps them lower
 STEP_BOUND = 1 << 20    # the highest cap: diffrax's static loop bound (.flow.StepCap takes the cap traced)
 PATH_RTOL = 1e-9        # integration rtol while a homotopy path is followed (end points: Shooting.rtol)
+SWITCHINGS = ("smoothed", "exact")     # the throttle δ(S, ε) (3.3.2), or 1[S > 0] (.exact_switching)
 
 
 def step_cap(n_rev: float, per_rev: float, minimum: int) -> int:

@@ -1,9 +1,8 @@
 """The multi-revolution Earth-orbit studies of dissertation §4.1 built from the config.
 
-Config (``config/studies/multirev.yaml``) holds physical inputs with their units in the key
-names (``*_km``, ``*_deg``, ``*_kg``, ``*_s``, ``*_N``); this module turns a case into a
-:class:`~spaceopt.indirect.transfer.Transfer`, runs chain stages, and saves/loads the stage
-artifacts (JSON scalars + NPZ samples + RRD recording).
+Config: ``config/studies/multirev.yaml``, turned into a
+:class:`~spaceopt.indirect.transfer.Transfer` by :mod:`.multirev_config`. This module runs chain
+stages, and saves/loads the stage artifacts (JSON scalars + NPZ samples + RRD recording).
 """
 from __future__ import annotations
 
@@ -14,8 +13,6 @@ from pathlib import Path
 import numpy as np
 
 from .. import artifacts
-from ..elements import apsides_to_ae
-from ..errors import ConfigError
 from ..indirect import chain
 from ..indirect.chain import Solution
 from ..indirect.shooting import Shooting
@@ -23,78 +20,6 @@ from ..indirect.flow import Model
 from ..indirect.transfer import Orbit, Transfer, datum
 from ..constants import DAY
 from .trajectory import sample
-
-ORBIT_KEYS = ("perigee_alt_km", "apogee_alt_km", "i_deg", "raan_deg", "argp_deg")
-
-
-def _number(cfg, key, path, positive=False, allow_zero=False):
-    if key not in cfg:
-        raise ConfigError(f"{path}.{key}", None, "missing (give the value with the unit in the key name)")
-    val = cfg[key]
-    if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val):
-        raise ConfigError(f"{path}.{key}", val, "must be a finite number")
-    if positive and not (val > 0 or (allow_zero and val == 0)):
-        raise ConfigError(f"{path}.{key}", val, "must be positive")
-    return float(val)
-
-
-def orbit_from_config(cfg, path, radius_m) -> Orbit:
-    if not isinstance(cfg, dict):
-        raise ConfigError(path, cfg, "must be a mapping of orbit elements")
-    unknown = sorted(set(cfg) - set(ORBIT_KEYS))
-    if unknown:
-        raise ConfigError(f"{path}.{unknown[0]}", cfg[unknown[0]],
-                          f"unknown key (expected {', '.join(ORBIT_KEYS)}; units in the key name)")
-    hp = _number(cfg, "perigee_alt_km", path) * 1e3
-    ha = _number(cfg, "apogee_alt_km", path) * 1e3
-    if ha < hp:
-        raise ConfigError(f"{path}.apogee_alt_km", cfg["apogee_alt_km"], "apogee below perigee")
-    if radius_m + hp <= 0:
-        raise ConfigError(f"{path}.perigee_alt_km", cfg["perigee_alt_km"], "perigee inside the Earth's centre")
-    a, e = apsides_to_ae(hp, ha, radius_m)
-    return Orbit(a, e, _number(cfg, "i_deg", path), cfg.get("raan_deg", 0.0), cfg.get("argp_deg", 0.0))
-
-
-def transfer_from_config(mr: dict, case: str, isp_s: float | None = None, thrust_N: float | None = None) -> Transfer:
-    """Build the Transfer of ``multirev.cases.<case>`` (validating every physical input)."""
-    if case not in mr.get("cases", {}):
-        raise ConfigError("multirev.cases", case, "unknown case")
-    cc = mr["cases"][case]
-    path = f"multirev.cases.{case}"
-    const = mr["constants"]
-    radius = _number(const, "earth_radius_km", "multirev.constants", positive=True) * 1e3
-    mu = _number(const, "mu_km3_s2", "multirev.constants", positive=True) * 1e9
-    orbits = mr["orbits"]
-    for end in ("initial", "final"):
-        if cc.get(end) not in orbits:
-            raise ConfigError(f"{path}.{end}", cc.get(end), "unknown orbit name")
-    sc = mr["spacecraft"]
-    n_rev = _number(cc, "n_rev", path, positive=True)
-    isp = isp_s if isp_s is not None else _number(sc, "isp_s", "multirev.spacecraft", positive=True)
-    return Transfer(orbit_from_config(orbits[cc["initial"]], f"multirev.orbits.{cc['initial']}", radius),
-                    orbit_from_config(orbits[cc["final"]], f"multirev.orbits.{cc['final']}", radius),
-                    L0_deg=_number(cc, "L0_deg", path), n_rev=n_rev,
-                    m0=_number(sc, "m0_kg", "multirev.spacecraft", positive=True), isp=isp,
-                    thrust=float("nan") if thrust_N is None else thrust_N, mu=mu,
-                    eps_final=_number(mr["numerics"], "eps_final", "multirev.numerics", positive=True),
-                    eps_blend=_number(mr["numerics"], "eps_blend", "multirev.numerics", positive=True))
-
-
-def check_config(mr: dict) -> None:
-    """Physical checks of the multirev section: every case to run builds a valid Transfer."""
-    for i, case in enumerate(mr["run_cases"]):
-        if case not in mr["cases"]:
-            raise ConfigError(f"multirev.run_cases[{i}]", case, "unknown case")
-        cc = mr["cases"][case]
-        for isp in cc["tmin_isp_s"]:
-            transfer_from_config(mr, case, isp_s=isp)
-        for T in cc["ot_thrust_N"]:
-            transfer_from_config(mr, case, thrust_N=T)
-    t413 = mr["table_4_1_3"]
-    if t413["case"] not in mr["cases"]:
-        raise ConfigError("multirev.table_4_1_3.case", t413["case"], "unknown case")
-    if t413["anchor_N"] not in t413["thrust_N"]:
-        raise ConfigError("multirev.table_4_1_3.anchor_N", t413["anchor_N"], "must be one of thrust_N")
 
 
 # ---------------------------------------------------------------- scalars and artifacts

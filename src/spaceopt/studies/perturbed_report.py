@@ -434,7 +434,7 @@ MODEL_TEX = {"unperturbed": "unperturbed", "j2": "$J_2$", "g44": "4$\\times$4",
 
 
 def e8_step_text(step: dict) -> str:
-    """One force-model step of the E8 route (:func:`perturbed.e8_model_steps`) in words."""
+    """One force-model step of the E8 route (:func:`.perturbed_config.e8_model_steps`) in words."""
     how = ["in arclength" if step["path"] == "arclength" else "in $\\tau$"]
     if step["arcs"] > 1:
         how.append(f"by multiple shooting over {step['arcs']} arcs")
@@ -449,8 +449,8 @@ def e8_step_text(step: dict) -> str:
 
 def e8_route_text(count_start: str, smoothing: dict, steps: list) -> str:
     """The sentences on how the E8 counts and models start (``count_start``: the config's
-    perturbed.e8.count_start; ``smoothing``: :func:`perturbed.e8_smoothing`, the ε values;
-    ``steps``: :func:`perturbed.e8_model_steps`, the force-model steps after $J_2$)."""
+    perturbed.e8.count_start; ``smoothing``: :func:`.perturbed_config.e8_smoothing`, the ε values;
+    ``steps``: :func:`.perturbed_config.e8_model_steps`, the force-model steps after $J_2$)."""
     eps = {k: latex_number(v) for k, v in smoothing.items() if k != "switching"}
     step_text = ": " + "; then ".join(e8_step_text(s) for s in steps) if steps else ""
     if smoothing.get("switching") == "exact":
@@ -485,7 +485,7 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
     (:func:`e8_route_text`); ``verify_rows``: the independent re-propagations
     (:func:`spaceopt.studies.verify.verification_rows`); ``tof_rows``: the free-time end games
     (:func:`tof_maximum_rows`); ``e8_skipped``: the (model, n_rev) the run leaves out
-    (``perturbed.e8.skip_n_rev``, :func:`spaceopt.studies.perturbed.e8_skipped`), named in the text;
+    (``perturbed.e8.skip_n_rev``, :func:`spaceopt.studies.perturbed_config.e8_skipped`), named in the text;
     ``failures``: the solves that failed in this run and were left out, with their diagnoses
     (:func:`spaceopt.studies.failed_solves.failures_sentence`; plain text);
     ``e6_families``: the scan's families and the envelope of the extremals found

@@ -55,32 +55,6 @@ COLUMNS = ["from_date", "to_date", "status", "m_f_kg", "tof_days", "scan_m_f_kg"
            "dm_f_g", "tau_max", "reason", "jacobian_evaluations", "wall_time_s"]
 
 
-def link_settings(pc: dict) -> dict | None:
-    """``perturbed.e6.links`` (schema-checked), or None where it is absent or null (off)."""
-    return pc["e6"].get("links") or None
-
-
-def start_pairs(pc: dict) -> list[tuple[str, str]]:
-    """(source, date) of every run date the scan starts from a neighbouring run date."""
-    dates = P.scan_run_dates(pc)
-    return [(P.scan_source(pc, d), d) for d in dates if P.scan_source(pc, d) in dates]
-
-
-def link_pairs(pc: dict) -> list[tuple[str, str]]:
-    """The ordered (from, to) pairs of neighbouring run dates that get a link job: forwards, and
-    backwards with ``directions: both``, less the pairs whose solve is the link (:func:`start_pairs`).
-    Neighbours are consecutive run dates (a date left out by ``skip_dates`` is stepped over)."""
-    settings = link_settings(pc)
-    if not settings:
-        return []
-    dates = P.scan_run_dates(pc)
-    pairs = list(zip(dates, dates[1:]))
-    if settings.get("directions", "both") == "both":
-        pairs += [(b, a) for a, b in pairs]
-    starts = set(start_pairs(pc))
-    return [p for p in pairs if p not in starts]
-
-
 def same_extremal(m_a: float, t_a: float, m_b: float, t_b: float, settings: dict) -> bool:
     """Two certified maxima are one where m_f and Δt agree within the link tolerances."""
     return abs(m_a - m_b) <= settings["mass_tol_kg"] and abs(t_a - t_b) <= settings["tof_tol_days"]

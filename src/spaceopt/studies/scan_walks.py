@@ -30,28 +30,12 @@ from collections import Counter
 
 import numpy as np
 
-from . import perturbed as P
 from .scan_families import TURNED_BACK, continue_to, same_extremal
 
 STEP_COLUMNS = ["from_date", "link_to", "date", "status", "m_f_kg", "tof_days", "scan_m_f_kg", "scan_tof_days",
                 "dm_f_g", "tau_max", "reason", "jacobian_evaluations", "wall_time_s"]
 ENVELOPE_COLUMNS = ["date", "scan_m_f_kg", "scan_tof_days", "extremals", "m_f_kg", "tof_days", "family_of", "gain_kg",
                     "arrival_utc"]
-
-
-def walk_settings(pc: dict) -> dict | None:
-    """``perturbed.e6.walks`` (schema-checked), or None where it or the links are off."""
-    e6 = pc["e6"]
-    return (e6.get("walks") or None) if e6.get("links") else None
-
-
-def walk_dates(pc: dict, a: str, b: str) -> list[str]:
-    """The run dates past b, away from a, that the walk of link (a, b) may reach: at most
-    ``max_days`` of them, nearest first."""
-    dates = P.scan_run_dates(pc)
-    i = dates.index(b)
-    ahead = dates[i + 1:] if b > a else dates[:i][::-1]
-    return ahead[:int(walk_settings(pc)["max_days"])]
 
 
 def extremal_at(template, z):
@@ -66,7 +50,7 @@ def extremal_at(template, z):
 def walk(sol, ahead: list[str], problems: dict, scans: dict, pc: dict, case: str, label: str, settings: dict,
          done=(), record=None) -> list[dict]:
     """The steps of a walk from ``sol``, the link's continued extremal at its date, through the
-    dates ``ahead`` (:func:`walk_dates`): each a link record with its ``date``.
+    dates ``ahead`` (:func:`.perturbed_config.walk_dates`): each a link record with its ``date``.
     ``problems[c]``: the scan's solution at date c (c's problem, the template of
     :func:`extremal_at`); ``scans[c]``: its scalars. ``done``: the steps recorded before an
     interruption (the walk goes on from the last one's unknowns); ``record(steps)`` is called

@@ -46,7 +46,7 @@ from ..indirect.flow import Model
 from ..indirect.shooting import Shooting, final_state, shoot
 from ..indirect.transfer import Transfer, step_cap
 from ..constants import DAY
-from . import multirev
+from . import multirev_config
 
 TMIN_PARAM = Model("tmin", "param")
 CELL_COLUMNS = ["L0_deg", "n_rev", "T_min_N", "tof_days", "m_f_kg"]
@@ -57,7 +57,7 @@ CELL_COLUMNS = ["L0_deg", "n_rev", "T_min_N", "tof_days", "m_f_kg"]
 def cell_transfer(mr: dict, sw: dict, L0_deg: float, n_rev: float) -> Transfer:
     """The Transfer of one sweep cell: orbits, spacecraft, constants from ``multirev``."""
     case = {"initial": sw["initial"], "final": sw["final"], "L0_deg": float(L0_deg), "n_rev": float(n_rev)}
-    return multirev.transfer_from_config({**mr, "cases": {"sweep_cell": case}}, "sweep_cell")
+    return multirev_config.transfer_from_config({**mr, "cases": {"sweep_cell": case}}, "sweep_cell")
 
 
 def max_steps_for(numerics: dict, n_rev: float) -> int:
