@@ -428,16 +428,6 @@ def save(sol: Solution, json_path, cfg: dict, wall_time_s: float, extra: dict | 
     return multirev.save(sol, json_path, cfg, wall_time_s, ex, samples_per_rev)
 
 
-def summary(payload: dict) -> dict:
-    """Table scalars of an OT artifact payload."""
-    s = payload["scalars"]
-    tr = payload["transfer"]
-    m_p = tr["m0"] - s["m_f_kg"]
-    return {"m_f_kg": s["m_f_kg"], "tof_days": s["tof_days"], "K_f_deg": s["K_f_deg"],
-            "propellant_kg": m_p, "dv_m_s": s["dv_m_s"], "burn_h": s["burn_days"] * 24.0,
-            "burn_fraction": s["burn_fraction"], "n_rev": tr["n_rev"]}
-
-
 # ---------------------------------------------------------------- E9 ΔΩ budget
 
 def j2_secular_rates(orbit: Orbit, mu: float, j2: float, radius: float) -> dict:

@@ -22,7 +22,6 @@ import numpy as np
 
 from ..report import compare
 from ..report.paper import latex_escape, latex_number
-from .perturbed import summary
 from .verify import verification_sentence
 
 COLUMNS = {
@@ -189,6 +188,16 @@ def tof_maximum_sentence(rows: list[dict]) -> str:
         text += (" The search did not certify " + ", ".join(
             f"{latex_escape(r['solve'])} ({latex_escape(r['status'])})" for r in failed) + ".")
     return text + " "
+
+
+def summary(payload: dict) -> dict:
+    """Table scalars of an OT artifact payload."""
+    s = payload["scalars"]
+    tr = payload["transfer"]
+    m_p = tr["m0"] - s["m_f_kg"]
+    return {"m_f_kg": s["m_f_kg"], "tof_days": s["tof_days"], "K_f_deg": s["K_f_deg"],
+            "propellant_kg": m_p, "dv_m_s": s["dv_m_s"], "burn_h": s["burn_days"] * 24.0,
+            "burn_fraction": s["burn_fraction"], "n_rev": tr["n_rev"]}
 
 
 def summary_or_none(payloads: dict, key: str):
