@@ -25,7 +25,8 @@ check_section("perturbed", physical=lambda pc: (scan_run_dates(pc), e8_runs(pc),
 PT = config["perturbed"]
 PTDIR = f"{RESULTS}/perturbed"
 PT_SRC = lib_sources("indirect", "elements", "forces", "ephemeris", "frames", "artifacts",
-                     "studies/perturbed", "studies/multirev", "studies/trajectory")
+                     "studies/perturbed", "studies/perturbed_config", "studies/multirev", "studies/multirev_config",
+                     "studies/trajectory")
 
 
 def _pt_fmt(x):
@@ -296,7 +297,7 @@ rule perturbed_e8:
 # ---------------------------------------------------------------- E9 ΔΩ budget
 
 rule perturbed_e9_budget:
-    input: src=lib_sources("studies/perturbed", "forces", "elements", "frames")
+    input: src=lib_sources("studies/perturbed", "studies/perturbed_config", "studies/multirev_config", "forces", "elements", "frames")
     output: f"{PTDIR}/e9_budget.json"
     params: cfg=lambda w: pt_config_for("e9", PT["cases"]["e9"]["models"][0]),
             days=PT.get("e9_budget", {}).get("days", 5.0), model=PT["cases"]["e9"]["models"][0]
