@@ -5,7 +5,7 @@ from spaceopt.studies.multirev_config import check_config as _check_multirev
 check_section("multirev", _check_multirev)
 MR = config["multirev"]
 MRDIR = f"{RESULTS}/multirev"
-SOLVER_SRC = lib_sources("indirect", "elements", "artifacts", "studies/multirev", "studies/multirev_config",
+SOLVER_SRC = lib_sources("indirect", "elements", "constants", "artifacts", "studies/multirev", "studies/multirev_config",
                          "studies/trajectory")
 
 

@@ -24,7 +24,7 @@ check_section("perturbed", physical=lambda pc: (scan_run_dates(pc), e8_runs(pc),
                                                 existence_bound_from(pc), case_start_models(pc)))
 PT = config["perturbed"]
 PTDIR = f"{RESULTS}/perturbed"
-PT_SRC = lib_sources("indirect", "elements", "forces", "ephemeris", "frames", "artifacts",
+PT_SRC = lib_sources("indirect", "elements", "constants", "forces", "ephemeris", "frames", "artifacts",
                      "studies/perturbed", "studies/perturbed_config", "studies/multirev", "studies/multirev_config",
                      "studies/trajectory")
 

@@ -14,7 +14,7 @@ validate(config["sweep"], "../../config/schema/sweep.schema.yaml")
 SW = config["sweep"]
 SW_MRDIR = f"{RESULTS}/multirev"
 SWDIR = f"{SW_MRDIR}/sweep"
-SW_SRC = lib_sources("indirect", "elements", "studies/sweep", "studies/multirev_config")
+SW_SRC = lib_sources("indirect", "elements", "constants", "artifacts", "studies/sweep", "studies/multirev_config")
 
 
 def _swg(x):

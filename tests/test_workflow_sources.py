@@ -1,0 +1,48 @@
+"""A solver change reruns the solves: every spaceopt module a solve job's script loads is among
+the library sources its rule declares as inputs (workflow/rules/common.smk, ``lib_sources``).
+
+Checked at import time: the modules a script's ``from spaceopt… import`` lines load, in a fresh
+interpreter (the force models a transfer builds later, ``forces``, ``ephemeris``, ``frames``, are
+declared by the perturbed rules too). Left out: the package's ``__init__`` files, ``errors`` and
+``config`` (messages, config-file parsing and the thread count; no numbers of a solution).
+"""
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+NOT_NUMERICS = {"src/spaceopt/errors.py", "src/spaceopt/config.py"}
+
+
+def declared(rules: str, name: str) -> set[str]:
+    """The files of ``NAME = lib_sources(...)`` in a rules file, expanded as lib_sources does."""
+    text = (ROOT / "workflow/rules" / rules).read_text()
+    args = re.search(rf"^{name} = lib_sources\((.*?)\)$", text, re.M | re.S).group(1)
+    files = set()
+    for pkg in re.findall(r'"([^"]+)"', args):
+        p = ROOT / "src/spaceopt" / pkg
+        files |= {str(f.relative_to(ROOT)) for f in p.glob("*.py")} if p.is_dir() else {f"src/spaceopt/{pkg}.py"}
+    return files
+
+
+def loaded(script: str) -> set[str]:
+    """The spaceopt source files that the script's spaceopt imports load."""
+    lines = [re.sub(r"\s*#.*$", "", line) for line in (ROOT / "workflow/scripts" / script).read_text().splitlines()
+             if re.match(r"(from spaceopt[\w.]* import |import spaceopt)", line)]
+    code = "\n".join([*lines, "import sys",
+                      "print('\\n'.join(m.__file__ for n, m in sys.modules.items() if n.startswith('spaceopt')))"])
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
+    return {str(Path(f).resolve().relative_to(ROOT)) for f in out.stdout.split()
+            if not f.endswith("__init__.py")} - NOT_NUMERICS
+
+
+@pytest.mark.parametrize("script, rules, name", [
+    ("perturbed_solve.py", "perturbed.smk", "PT_SRC"),
+    ("multirev_solve.py", "multirev.smk", "SOLVER_SRC"),
+    ("sweep_row.py", "sweep.smk", "SW_SRC"),
+])
+def test_a_solve_rule_declares_every_library_module_its_script_loads(script, rules, name):
+    assert loaded(script) - declared(rules, name) == set()
