@@ -78,8 +78,9 @@ def case_path_arcs(cc: dict, model: str, path: str) -> int:
 
 def perturb_at_eps(pc: dict, case: str, key: str = "perturb_at_eps") -> float | None:
     """Case option ``perturb_at_eps`` (or ``model_step_at_eps``): the smoothing ε at which the
-    perturbations are switched on (:func:`perturb_from_unperturbed`), or a perturbed force
-    model is changed (:func:`warm_start`), between ε_f and 1; None (absent) does it at ε_f."""
+    perturbations are switched on (:func:`.perturbed.perturb_from_unperturbed`), or a perturbed
+    force model is changed (:func:`.perturbed.warm_start`), between ε_f and 1; None (absent) does
+    it at ε_f."""
     eps = pc["cases"][case].get(key)
     if eps is None:
         return None
@@ -117,8 +118,8 @@ def case_corrector(pc: dict, case: str) -> str:
     """Case option ``corrector``: 'newton' (the default), a Jacobian at every corrector
     evaluation, or 'chord', the corrector's later steps with the Jacobian of its first and f
     alone (:mod:`spaceopt.indirect.continuation`), on the paths of the chain from the zero guess
-    (:func:`chain_options`). The warm starts keep Newton's: their steps converge in one or two
-    corrector evaluations, so the chord saves little, and on the exact map at E8 500 rev the 4×4
+    (:func:`.perturbed.chain_options`). The warm starts keep Newton's: their steps converge in one
+    or two corrector evaluations, so the chord saves little, and on the exact map at E8 500 rev the 4×4
     blend with it stalled at τ 0.6 (the accepted point's update, with the predictor's Jacobian,
     crossed an edge of the map), and took 152 s with ``accepted_update`` revert against Newton's
     103 s (docs/perturbed-e6-e7-e8.md, "thirty-seventh session")."""
@@ -134,7 +135,8 @@ def case_model_step(cc: dict, model: str, path: str, n_rev: float | None = None)
     in arclength at once; for the perturbations switched on from an unperturbed solution the
     default is arclength) and the continuation options ``step_growth``, ``accepted_update``,
     ``corrector``, ``step_rcond``, ``flat_step``, ``end_overshoot`` and ``h_max`` (the largest
-    step, in the path's own measure; :class:`ContinuationOptions`, :class:`ArclengthOptions`).
+    step, in the path's own measure; :class:`~spaceopt.indirect.continuation.ContinuationOptions`,
+    :class:`~spaceopt.indirect.continuation.ArclengthOptions`).
     ``config/e8_exact.yaml`` switches J2 on in τ with the chord corrector: at 500 revolutions 14
     Jacobians against 37 with Newton's in τ and 52 in arclength, the same extremal
     (docs/perturbed-e6-e7-e8.md, "forty-second session").
