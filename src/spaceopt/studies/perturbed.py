@@ -5,8 +5,8 @@ final orbit (altitudes above the mean Earth radius, or ``a_km``/``e`` where the 
 them), L₀, the angular range, the spacecraft, the departure epoch (UTC), the ephemeris window
 and the perturbation models (``forces.build_model`` configs) it is solved with.
 
-The case options and the DAG's plan (dates, counts, models, existence checks) are read and
-checked by :mod:`.perturbed_config`, which imports no solver.
+The DAG's plan (dates, counts, models, existence checks) and the case options it and the
+solves' paths read are in :mod:`.perturbed_config`, which imports no solver.
 
 Chain for every (case, model) (spec 02-multirev §2.6, no published costate as a guess):
 

@@ -1,11 +1,12 @@
-"""The ``perturbed`` section of the config (dissertation §4.2, E5–E9): the case options read and
-checked, and the runs the DAG plans from them.
+"""The ``perturbed`` section of the config (dissertation §4.2, E5–E9): the runs the DAG plans
+from it, and the case options that plan and the solves' paths read (start model, model step,
+path tolerances and arcs, switching, corrector, the ε of a switch-on).
 
 Each reader names the offending key and value in a one-line ConfigError. The module imports no
 solver (diffrax, optimistix, the chain): the Snakefile plans the perturbed DAG with it (which
 dates, counts, models and existence checks run, and what each starts from), and every Snakemake
-run pays for what it imports; the solves read the same options through
-:mod:`spaceopt.studies.perturbed`.
+run pays for what it imports. The options only a solve reads (the case keys of a transfer,
+``warm_step_growth``, ``tof_maximum``) stay with the solves in :mod:`spaceopt.studies.perturbed`.
 """
 from __future__ import annotations
 
