@@ -123,7 +123,7 @@ def e8_route_times(e8: dict) -> dict:
     """Wall time of the DAG's route to each perturbed E8 solve, from the artifacts: the
     unperturbed count n (``perturbed.e8.count_start: chain``, from the zero guess) or the
     unperturbed counts up to n (``previous``: each continues from the one before), then the
-    models at n that lead to the solve (``perturbed_config.case_route``: each from its start model); the
+    models at n that lead to the solve (``perturbed_config.case_route`` at n: each from its start model); the
     Jacobians of the solvers and of the free-time end games. Only routes whose solves all exist."""
     from spaceopt.studies.perturbed_config import case_route, e8_count_start
     pc = _perturbed_config()
@@ -134,7 +134,7 @@ def e8_route_times(e8: dict) -> dict:
     for n in ns:
         first = [f"{models[0]}_n{m:g}" for m in ns if (m == n if chained else m <= n)]
         for model in models[1:]:
-            keys = first + [f"{m}_n{n:g}" for m in case_route(pc, "e8", model)[1:]]
+            keys = first + [f"{m}_n{n:g}" for m in case_route(pc, "e8", model, n)[1:]]
             if all(k in e8 and e8[k]["wall_time_s"] for k in keys):
                 out[f"{model}_n{n:g}"] = {"wall_time_s": sum(e8[k]["wall_time_s"] for k in keys),
                                           "jacobian_evaluations": sum((e8[k]["jacobian_evaluations"] or 0)
@@ -447,7 +447,7 @@ def e8_exact_route(n_rev: float, corrector: str | None = None, last_model: str |
     from spaceopt.studies import perturbed as P, perturbed_config as C
 
     pc = _perturbed_config()
-    models = C.case_route(pc, "e8", last_model or pc["cases"]["e8"]["models"][-1])
+    models = C.case_route(pc, "e8", last_model or pc["cases"]["e8"]["models"][-1], n_rev)
     label = f"bench/e8-exact/n{n_rev:g}"
     corrector = corrector or C.case_corrector(pc, "e8")
     options = chain.ContinuationOptions(corrector=corrector)

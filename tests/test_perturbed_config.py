@@ -586,6 +586,43 @@ def test_model_from_names_the_start_of_a_warm_start_and_is_checked():
         C.case_start_model(pc, "e5", "g44_moon_sun")
 
 
+def test_model_from_can_name_the_start_of_one_revolution_count():
+    """model_from {model: {at_n_rev: {count: start}}}: E8's full model starts from J2 at that
+    count only, from the previous model (or the entry's ``model``) at the others; the route at
+    each count and the report text follow; bad entries are one-line errors naming the key."""
+    pc = copy.deepcopy(PC)
+    models = pc["cases"]["e8"]["models"]
+    n = float(pc["e8"]["n_rev"][-1])
+    pc["cases"]["e8"]["model_from"] = {"g44_moon_sun": {"at_n_rev": {int(n): "j2"}}}
+    assert C.case_start_model(pc, "e8", "g44_moon_sun") == "g44"
+    assert C.case_start_model(pc, "e8", "g44_moon_sun", n) == "j2"
+    assert C.case_start_model(pc, "e8", "g44_moon_sun", n - 50) == "g44"
+    assert C.case_start_model(pc, "e8", "g44", n) == "j2"                 # another model: unchanged
+    assert C.case_route(pc, "e8", "g44_moon_sun", n) == ["unperturbed", "j2", "g44_moon_sun"]
+    assert C.case_route(pc, "e8", "g44_moon_sun", n - 50) == models
+    assert C.case_start_models(pc)["e8"]["g44_moon_sun"] == "g44"
+    steps = {s["model"]: s for s in C.e8_model_steps(pc)}
+    assert steps["g44_moon_sun"]["from"] is None and steps["g44_moon_sun"]["from_at_n_rev"] == {n: "j2"}
+    assert steps["g44"]["from_at_n_rev"] == {}
+    text = R.e8_step_text(steps["g44_moon_sun"])
+    assert text.startswith(r"to 4$\times$4 + Moon + Sun (") and text.endswith(f"), at {n:g} revolutions from the $J_2$ extremal")
+    pc["cases"]["e8"]["model_from"] = {"g44_moon_sun": {"model": "j2", "at_n_rev": {int(n): "g44"}}}
+    assert C.case_start_model(pc, "e8", "g44_moon_sun", n - 50) == "j2"
+    assert C.case_start_model(pc, "e8", "g44_moon_sun", n) == "g44"
+    for value, match in (({"g44_moon_sun": {"at_n_rev": {450: "moon"}}}, r"model_from\.g44_moon_sun\.at_n_rev\.450='moon'.*before"),
+                         ({"g44_moon_sun": {"at_n_rev": {-1: "j2"}}}, r"at_n_rev\.-1='j2'.*positive revolution count"),
+                         ({"g44_moon_sun": {"at_n_rev": [450]}}, r"at_n_rev=\[450\].*mapping"),
+                         ({"g44_moon_sun": {"from": "j2"}}, r"model_from\.g44_moon_sun\.from='j2'.*unknown"),
+                         ({"g44_moon_sun": {"model": "g44_moon_sun"}}, r"model_from\.g44_moon_sun\.model=.*before")):
+        pc["cases"]["e8"]["model_from"] = value
+        with pytest.raises(ConfigError, match=match):
+            C.case_start_models(pc)
+    pc["cases"]["e8"]["model_from"] = None
+    pc["cases"]["e9"]["model_from"] = {"g44_moon_sun": {"at_n_rev": {450: "j2"}}}   # E9 has no counts
+    with pytest.raises(ConfigError, match=r"perturbed\.cases\.e9\.model_from\.g44_moon_sun\.at_n_rev.*only E8"):
+        C.case_start_models(pc)
+
+
 def test_corrector_is_read_and_reaches_the_chain_only():
     """Case option corrector (newton | chord): Newton's leaves the followers' defaults; chord goes
     into the options of the chain from the zero guess, not into the warm starts' (they keep

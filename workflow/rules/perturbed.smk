@@ -59,13 +59,14 @@ def pt_config_for(case, model):
             "cases": {case: cc}}
 
 
-def pt_warm_source(case, model):
+def pt_warm_source(case, model, n_rev=None):
     """The first model of a case's list is solved by the chain from the zero guess; every later
     model too when the case says model_start: chain (E5, E7), else by a warm start from the
-    previous model, or the one the case's model_from names (studies.perturbed_config.case_start_model;
-    warm_start: the force-model blend, its fallbacks): E8 unperturbed -> J2 -> 4x4 -> 4x4 + Moon
-    + Sun (the exact profile: the full model from J2), E9 J2 -> 4x4 -> 4x4 + Moon + Sun."""
-    return case_start_model(PT, case, model)
+    previous model, or the one the case's model_from names, for every E8 count or at n_rev
+    (studies.perturbed_config.case_start_model; warm_start: the force-model blend, its fallbacks):
+    E8 unperturbed -> J2 -> 4x4 -> 4x4 + Moon + Sun (at 450 the full model from J2; the exact
+    profile: from J2 at every count), E9 J2 -> 4x4 -> 4x4 + Moon + Sun."""
+    return case_start_model(PT, case, model, n_rev)
 
 
 def pt_fallback_source(case, model):
@@ -108,9 +109,9 @@ def pt_e8_start(model, n):
     """What E8 solve (model, n) starts from, as (model, n), or None for a chain from the zero
     guess. The first model of the case: the chain (perturbed.e8.count_start: chain, the
     default), or the next smaller n of the list (previous: n to n, the smallest n the chain).
-    Every later model: the previous model at the same n (perturbations switched on by τ;
-    pt_warm_source), so the perturbed counts are independent jobs."""
-    prev = pt_warm_source("e8", model)
+    Every later model: the previous model at the same n, or the one model_from names for it
+    (perturbations switched on by τ; pt_warm_source), so the perturbed counts are independent jobs."""
+    prev = pt_warm_source("e8", model, float(n))
     if prev is not None:
         return prev, float(n)
     if e8_count_start(PT) == "chain":

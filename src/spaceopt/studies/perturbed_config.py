@@ -182,7 +182,7 @@ def case_model_step(cc: dict, model: str, path: str, n_rev: float | None = None)
     return _per_model(cc, "model_step", model, path, {}, read)
 
 
-def case_start_model(pc: dict, case: str, model: str) -> str | None:
+def case_start_model(pc: dict, case: str, model: str, n_rev: float | None = None) -> str | None:
     """The model whose converged solution the solve of (``case``, ``model``) starts from, or None
     where that solve is the chain from the zero guess: the case's first model, and every model
     when the case says ``model_start: chain`` (E5, E7). Otherwise the model the case option
@@ -190,26 +190,60 @@ def case_start_model(pc: dict, case: str, model: str) -> str | None:
     ``models``. ``config/e8_exact.yaml`` starts the full model from J2: on the exact map at 500
     revolutions the J2 → full blend took 44 Jacobians and landed on the certified maximum, where
     J2 → 4×4 → full took 16 + 64 and an end game of 33 (docs/perturbed-e6-e7-e8.md,
-    "forty-second session"); 4×4 is then a solve beside the route, not on it."""
+    "forty-second session"); 4×4 is then a solve beside the route, not on it.
+    A ``model_from`` entry may instead be a mapping ``{model: start, at_n_rev: {count: start}}``
+    (``model`` optional, the previous model by default): the start at revolution count ``n_rev``
+    where ``at_n_rev`` names it (E8 only, the case with counts). On the smoothed route the full
+    model starts from J2 at 450 revolutions only: there the route through 4×4 reaches no maximum,
+    from J2 it certifies one; at 300 the J2 start lands on a neighbouring maximum 0.08 g heavier in
+    propellant (docs/perturbed-e6-e7-e8.md, "forty-fourth", "fifty-first" and "fifty-second
+    session"). ``n_rev`` None: the start the entry names for every count."""
     cc, where = pc["cases"][case], f"perturbed.cases.{case}.model_from"
     models, model_from = cc["models"], cc.get("model_from") or {}
-    for target, start in model_from.items():
-        if target not in models[1:]:
-            raise ConfigError(f"{where}.{target}", start, f"not a model of the case after its first ({', '.join(models[1:])})")
-        if start not in models[:models.index(target)]:
-            raise ConfigError(f"{where}.{target}", start, f"must name a model before {target} in the case's models")
-    if model_from and cc.get("model_start", "previous") == "chain":
+    chained = cc.get("model_start", "previous") == "chain"
+    if model_from and chained:
         raise ConfigError(where, model_from, "every model starts from the zero guess here (model_start: chain)")
-    if model == models[0] or cc.get("model_start", "previous") == "chain":
+    starts = {target: _model_from_entry(models, case, target, entry, f"{where}.{target}")
+              for target, entry in model_from.items()}
+    if model == models[0] or chained:
         return None
-    return model_from.get(model, models[models.index(model) - 1])
+    default, at_n_rev = starts.get(model, (models[models.index(model) - 1], {}))
+    return at_n_rev.get(float(n_rev), default) if n_rev is not None else default
 
 
-def case_route(pc: dict, case: str, model: str) -> list[str]:
-    """The models whose solves lead to (``case``, ``model``), in order, ``model`` last: its start
-    model's route (:func:`case_start_model`), from the solve that starts from the zero guess."""
-    start = case_start_model(pc, case, model)
-    return [model] if start is None else case_route(pc, case, start) + [model]
+def _model_from_entry(models: list, case: str, target: str, entry, where: str) -> tuple[str, dict]:
+    """One ``model_from`` entry, checked: (its start model for every count, {count: start})."""
+    if target not in models[1:]:
+        raise ConfigError(where, entry, f"not a model of the case after its first ({', '.join(models[1:])})")
+
+    def start(value, key):
+        if value not in models[:models.index(target)]:
+            raise ConfigError(key, value, f"must name a model before {target} in the case's models")
+        return value
+    if not isinstance(entry, dict):
+        return start(entry, where), {}
+    for key, value in entry.items():
+        if key not in ("model", "at_n_rev"):
+            raise ConfigError(f"{where}.{key}", value, "unknown setting (expected model, at_n_rev)")
+    counts = entry.get("at_n_rev", {})
+    if case != "e8" and counts:
+        raise ConfigError(f"{where}.at_n_rev", counts, "only E8 has revolution counts")
+    if not isinstance(counts, dict):
+        raise ConfigError(f"{where}.at_n_rev", counts, "expected a mapping {revolution count: start model}")
+    at_n_rev = {}
+    for count, value in counts.items():
+        if isinstance(count, bool) or not isinstance(count, (int, float)) or count <= 0:
+            raise ConfigError(f"{where}.at_n_rev.{count}", value, "the key must be a positive revolution count")
+        at_n_rev[float(count)] = start(value, f"{where}.at_n_rev.{count}")
+    return start(entry.get("model", models[models.index(target) - 1]), f"{where}.model"), at_n_rev
+
+
+def case_route(pc: dict, case: str, model: str, n_rev: float | None = None) -> list[str]:
+    """The models whose solves lead to (``case``, ``model``) at revolution count ``n_rev``, in
+    order, ``model`` last: its start model's route (:func:`case_start_model`), from the solve that
+    starts from the zero guess."""
+    start = case_start_model(pc, case, model, n_rev)
+    return [model] if start is None else case_route(pc, case, start, n_rev) + [model]
 
 
 def case_start_models(pc: dict) -> dict:
@@ -373,14 +407,18 @@ def e8_smoothing(pc: dict) -> dict:
 
 def e8_model_steps(pc: dict) -> list[dict]:
     """The force-model steps of the E8 route after J2 is switched on (the case's models from the
-    third on), for the report text: {model, from, path, arcs, step_rcond, flat_step} from the
-    case options ``model_from``, ``model_step`` and ``path_arcs``; ``from`` is the start model
-    (:func:`case_start_model`) where it is not the one before in the list, else None."""
+    third on), for the report text: {model, from, from_at_n_rev, path, arcs, step_rcond,
+    flat_step} from the case options ``model_from``, ``model_step`` and ``path_arcs``; ``from`` is
+    the start model (:func:`case_start_model`) where it is not the one before in the list, else
+    None; ``from_at_n_rev`` ({count: start model}) the counts of ``perturbed.e8.n_rev`` whose
+    start differs from that (``model_from``'s ``at_n_rev``)."""
     cc, where = pc["cases"]["e8"], "perturbed.cases.e8"
     steps = []
     for model in cc["models"][2:]:
         step, start = case_model_step(cc, model, where), case_start_model(pc, "e8", model)
+        at_n_rev = {float(n): s for n in pc["e8"]["n_rev"] if (s := case_start_model(pc, "e8", model, n)) != start}
         steps.append({"model": model, "from": None if start == cc["models"][cc["models"].index(model) - 1] else start,
+                      "from_at_n_rev": at_n_rev,
                       "path": step.get("path", "tau"), "arcs": case_path_arcs(cc, model, where),
                       "step_rcond": step.get("step_rcond", 0.0), "flat_step": step.get("flat_step", 0.0)})
     return steps

@@ -453,7 +453,12 @@ def e8_step_text(step: dict) -> str:
         how.append("its end point found along the Jacobian's flattest direction where Newton's polish fails")
     start = step.get("from")
     source = f" from the {MODEL_TEX.get(start, start)} extremal" if start else ""
-    return f"to {MODEL_TEX.get(step['model'], step['model'])}{source} ({', '.join(how)})"
+    by_start = {}
+    for n, model in sorted(step.get("from_at_n_rev", {}).items()):
+        by_start.setdefault(model, []).append(f"{n:g}")
+    counts = "".join(f", at {' and '.join(ns)} revolutions from the {MODEL_TEX.get(m, m)} extremal"
+                     for m, ns in by_start.items())
+    return f"to {MODEL_TEX.get(step['model'], step['model'])}{source} ({', '.join(how)}){counts}"
 
 
 def e8_route_text(count_start: str, smoothing: dict, steps: list) -> str:
