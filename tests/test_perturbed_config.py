@@ -1222,7 +1222,7 @@ def test_e6_figure_draws_each_family_followed_on_from_its_links_point_and_the_en
 
 
 def test_the_verification_sentence_states_the_worst_errors_and_the_perturbation_scale():
-    from spaceopt.studies.verify import verification_sentence
+    from spaceopt.report.verification import verification_sentence
     row = {"final_a_error_km": -0.2, "final_e_error": 1e-6, "final_i_error_deg": 3e-6, "final_mass_error_kg": 1e-5,
            "final_position_vs_solver_km": 0.5}
     assert verification_sentence([], "x") == ""

@@ -109,7 +109,7 @@ def mr_verify_files():
 
 rule multirev_tables:
     input: **mr_stage_jsons(), _verify=mr_verify_files(), _pub="config/published/yun2023_multirev.yaml",
-           _src=lib_sources("report/compare", "studies/multirev_report")
+           _src=lib_sources("report/compare", "report/verification", "studies/multirev_report")
     output:
         anchors=f"{MRDIR}/anchors.csv",
         t413=f"{MRDIR}/table_4_1_3.csv",
@@ -135,7 +135,7 @@ rule multirev_figures:
 rule multirev_paper_section:
     input: repro=f"{MRDIR}/reproduction.csv", verify=f"{MRDIR}/verification.csv", anchors=f"{MRDIR}/anchors.csv",
            t413=f"{MRDIR}/table_4_1_3.csv", t413_tex=f"{MRDIR}/table_4_1_3.tex", figures=f"{MRDIR}/figures",
-           _src=lib_sources("studies/multirev_report")
+           _src=lib_sources("studies/multirev_report", "report/verification")
     output: f"{MRDIR}/paper_section.tex"
     params: cases=MR["run_cases"]
     log: f"{MRDIR}/logs/paper_section.log"

@@ -464,7 +464,7 @@ PT_TABLES = ["e5", "e6_date_scan", "e7", "e8", "e9"]
 rule perturbed_tables:
     input: **pt_stage_jsons(), _budget=f"{PTDIR}/e9_budget.json",
            _pub="config/published/yun2023_perturbed.yaml", _verify=pt_verify_files(), _envelope=E6_ENVELOPE,
-           _src=lib_sources("report/compare", "studies/perturbed_report")
+           _src=lib_sources("report/compare", "report/verification", "studies/perturbed_report")
     output:
         **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},
         repro=f"{PTDIR}/reproduction.csv",
@@ -510,8 +510,8 @@ rule perturbed_paper_section:
            figures=[f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()],
            families=E6_FAMILIES, walks=E6_WALKS_CSV, envelope=E6_ENVELOPE, heavier=E6_HEAVIER, force_shares=FS_TABLE,
            force_shares_by_revolution=FS_BY_REVOLUTION, existence=EX_TABLE, **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},
-           _src=lib_sources("studies/perturbed_report", "studies/scan_families", "studies/scan_walks",
-                            "studies/force_shares", "studies/existence")
+           _src=lib_sources("studies/perturbed_report", "report/verification", "studies/scan_families",
+                            "studies/scan_walks", "studies/force_shares", "studies/existence")
     output: f"{PTDIR}/paper_section.tex"
     params: run=PT["run"], results=RESULTS, e8_count_start=e8_count_start(PT), e8_smoothing=e8_smoothing(PT),
             e6_skipped=config["perturbed"]["e6"].get("skip_dates") or [],

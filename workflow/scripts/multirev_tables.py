@@ -7,7 +7,7 @@ from _step import run_step  # noqa: E402
 
 from spaceopt.report import compare  # noqa: E402
 from spaceopt.report.tables import write_csv  # noqa: E402
-from spaceopt.studies.verify import verification_rows, write_verification_csv  # noqa: E402
+from spaceopt.report.verification import verification_rows, write_verification_csv  # noqa: E402
 from spaceopt.studies import multirev_report as mr  # noqa: E402
 
 

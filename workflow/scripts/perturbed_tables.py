@@ -8,7 +8,7 @@ from _step import run_step  # noqa: E402
 from spaceopt import artifacts  # noqa: E402
 from spaceopt.report.tables import read_csv, write_csv  # noqa: E402
 from spaceopt.studies import perturbed_report as R  # noqa: E402
-from spaceopt.studies.verify import verification_rows, write_verification_csv  # noqa: E402
+from spaceopt.report.verification import verification_rows, write_verification_csv  # noqa: E402
 
 
 def main(sm):

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from .. import artifacts
 from ..report import compare
-from .verify import verification_sentence
+from ..report.verification import verification_sentence
 
 ANCHOR_QUANTITIES = {
     "lp": ("tof_days", "m_f_kg", "K_f_deg", "J_LP_m2s3", "dv_m_s", "T0_guess_N"),

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..report import compare
 from ..report.paper import latex_escape, latex_number
-from .verify import verification_sentence
+from ..report.verification import verification_sentence
 
 COLUMNS = {
     "e5": ["model", "m_f_kg", "tof_days", "K_f_deg"],
@@ -497,7 +497,7 @@ def paper_section(rows: list, tabs: dict, budget: dict | None, e6sum: dict, figu
     """LaTeX fragment of the §4.2 section; every number comes from the artifacts or the config.
     ``e8_count_start``, ``smoothing``, ``e8_steps``: how each E8 count and model starts
     (:func:`e8_route_text`); ``verify_rows``: the independent re-propagations
-    (:func:`spaceopt.studies.verify.verification_rows`); ``tof_rows``: the free-time end games
+    (:func:`spaceopt.report.verification.verification_rows`); ``tof_rows``: the free-time end games
     (:func:`tof_maximum_rows`); ``e8_skipped``: the (model, n_rev) the run leaves out
     (``perturbed.e8.skip_n_rev``, :func:`spaceopt.studies.perturbed_config.e8_skipped`), named in the text;
     ``failures``: the solves that failed in this run and were left out, with their diagnoses
