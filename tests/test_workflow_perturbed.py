@@ -27,7 +27,7 @@ def test_full_reproduction_plans_e6_dates_from_the_unperturbed_solve_and_e8_coun
     """E6: every date from the unperturbed E5 OT, but the dates of ``start_from`` from their named
     neighbour; E8: each revolution count of the first model from the zero guess (count_start:
     chain) or from the next smaller one (previous), every later model from the previous model
-    at the same count. E6 families: a link job per ordered pair of neighbouring dates, from the
+    at the same count, or the one model_from names for that count. E6 families: a link job per ordered pair of neighbouring dates, from the
     first date's solve to the second's, but none where the scan started the one from the other; a
     walk job per link, with the scan's solves at its date and the dates past it."""
     rc, out = smk("-n", "--forceall", "--cores", "2", "results/perturbed/e6_date_scan.csv",
@@ -80,11 +80,10 @@ def test_full_reproduction_plans_e6_dates_from_the_unperturbed_solve_and_e8_coun
         elif m == models[0]:
             for lo, hi in zip(ns, ns[1:]):           # each count from the next smaller one
                 assert f"results/perturbed/e8/{m}_n{lo:g}.json" in e8[f"results/perturbed/e8/{m}_n{hi:g}.json"]
-        else:                                        # from the previous model at the same count
-            prev = models[models.index(m) - 1]
+        else:                                        # from its start model at the same count (model_from)
             for n in (n for n in ns if n not in skip.get(m, ())):
                 inputs = e8[f"results/perturbed/e8/{m}_n{n:g}.json"]
-                assert f"results/perturbed/e8/{prev}_n{n:g}.json" in inputs
+                assert f"results/perturbed/e8/{C.case_start_model(PT, 'e8', m, n)}_n{n:g}.json" in inputs
                 assert not any(i.startswith(f"results/perturbed/e8/{m}_") for i in inputs)
 
 
