@@ -99,11 +99,12 @@ def test_a_continuation_that_does_not_reach_the_new_date_is_a_result_not_an_erro
     """A fold of a's family in the epoch (or a stall) gives the link status 'failed' with the
     error and the path's cost; the job still writes its record."""
     from spaceopt.errors import ConvergenceError
+    from spaceopt.studies import perturbed as P          # continue_to imports it when called
 
     def fold(*args, **kwargs):
         raise ConvergenceError("e6 link: the arclength path turned back at tau 0.61",
                                {"jacobian_evaluations": 17, "wall_time_s": 42.0, "tau_max": 0.61})
-    monkeypatch.setattr(F.P, "warm_start", fold)
+    monkeypatch.setattr(P, "warm_start", fold)
     rec, sol = F.continue_to(None, None, {"m_f_kg": 960.0, "tof_days": 60.0}, {}, "e5", "link", SETTINGS)
     assert rec["status"] == "failed" and "tau 0.61" in rec["error"]
     assert rec["jacobian_evaluations"] == 17 and rec["scan_m_f_kg"] == 960.0 and "m_f_kg" not in rec

@@ -24,19 +24,24 @@ force model of the case (J2) is carried over to it at its fixed τ by blending t
 (:func:`solve_from_bound`, ``tmin_from_ot.bound_in_model``): again an upper bound.
 
 Not in the dissertation; the results are ours (``results/perturbed/existence.csv``).
+The solve functions import the solver when called: the table and the paper's sentence
+(:func:`row`, :func:`sentence`) load without it.
 """
 from __future__ import annotations
 
-from ..indirect import chain
-from ..indirect.chain import Solution
-from ..indirect.tmin_from_ot import FromOtOptions, bound_in_model, solve_tmin_from_ot
-from ..indirect.transfer import Transfer
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ..indirect.chain import Solution
+    from ..indirect.tmin_from_ot import FromOtOptions
+    from ..indirect.transfer import Transfer
 
 COLUMNS = ("case", "model", "n_rev", "thrust_N", "T_min_N", "T_min_is", "exists", "n_rev_needed", "tof_days",
            "K_f_deg", "lp_perturbed", "route", "bound_from")
 
 
 def _with_verdict(tm: Solution, thrust_N: float) -> tuple[Solution, dict]:
+    from ..indirect import chain
     verdict = chain.existence_verdict(tm, thrust_N)
     tm.extra["verdict"] = verdict
     return tm, verdict
@@ -45,6 +50,7 @@ def _with_verdict(tm: Solution, thrust_N: float) -> tuple[Solution, dict]:
 def solve(tr: Transfer, label: str, lp_perturbed: bool = False, options=None) -> tuple[Solution, dict]:
     """The minimum-thrust solution of ``tr`` (perturbed when ``tr`` is) from the zero guess, and
     the verdict for ``tr.thrust``."""
+    from ..indirect import chain
     lp = chain.solve_lp(tr, options, label=f"{label}/lp", perturbed=lp_perturbed and tr.perturbed)
     tm = chain.solve_tmin(lp, options, label=f"{label}/tmin")
     tm.extra.update({"lp_perturbed": lp.shooting.model.perturbed, "route": "lp-tmin",
@@ -52,20 +58,22 @@ def solve(tr: Transfer, label: str, lp_perturbed: bool = False, options=None) ->
     return _with_verdict(tm, tr.thrust)
 
 
-def solve_from_ot(ot: Solution, label: str, options: FromOtOptions = FromOtOptions()) -> tuple[Solution, dict]:
+def solve_from_ot(ot: Solution, label: str, options: FromOtOptions | None = None) -> tuple[Solution, dict]:
     """T_min, or an upper bound on it, from the converged OT solution ``ot`` of the case, and the
-    verdict for its thrust."""
-    tm = solve_tmin_from_ot(ot, options, label=f"{label}/tmin from ot")
+    verdict for its thrust (``options``: the defaults of ``FromOtOptions`` where None)."""
+    from ..indirect.tmin_from_ot import FromOtOptions, solve_tmin_from_ot
+    tm = solve_tmin_from_ot(ot, options or FromOtOptions(), label=f"{label}/tmin from ot")
     tm.extra["lp_perturbed"] = False
     return _with_verdict(tm, ot.thrust_N)
 
 
 def solve_from_bound(bound: Solution, tr: Transfer, from_model: str, label: str,
-                     options: FromOtOptions = FromOtOptions()) -> tuple[Solution, dict]:
+                     options: FromOtOptions | None = None) -> tuple[Solution, dict]:
     """An upper bound on T_min under the force model of ``tr``, carried over from ``bound``, the
     upper bound of the case's model ``from_model``, and the verdict for the OT thrust that bound
     was found from (the case's)."""
-    tm = bound_in_model(bound, tr, options, label=f"{label}/bound from {from_model}")
+    from ..indirect.tmin_from_ot import FromOtOptions, bound_in_model
+    tm = bound_in_model(bound, tr, options or FromOtOptions(), label=f"{label}/bound from {from_model}")
     tm.extra.update({"lp_perturbed": False, "bound_from": from_model})
     return _with_verdict(tm, bound.extra["T_ot_N"])
 

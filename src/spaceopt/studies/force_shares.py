@@ -42,12 +42,9 @@ import math
 import re
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from .. import artifacts
 from ..constants import DAY
-from ..elements import cartesian_to_mee
-from .verify import recorded_control
 
 # the forces of the budget, in the order of the table's columns; the thrust first
 FORCES = ("thrust", "j2", "geopotential", "moon", "sun")
@@ -60,8 +57,11 @@ def force_shares(json_path, rtol=1e-10, atol_m=1e-3) -> dict:
     of ΔE, |Δh| and ΔE themselves, the closure of both budgets, the shares of Δh by revolution
     and (with the Moon) the closest approach to the Moon. ValueError for an unperturbed artifact."""
     import jax
+    from scipy.integrate import solve_ivp
 
+    from ..elements import cartesian_to_mee
     from ..forces import acceleration_terms, build_model
+    from .verify import recorded_control
     data = artifacts.read_json(json_path)
     smp = artifacts.read_npz(json_path)
     extra = data.get("extra") or {}

@@ -31,6 +31,9 @@ direction. :func:`heavier_elsewhere` lists the dates where a neighbour's family,
 is heavier than the scan's extremal: the scan's curve is not the upper envelope of the families
 it met there.
 
+:func:`continue_to` (the link jobs) imports the solver when called; the families' table, figure
+and paper sentence load without it.
+
 Config ``perturbed.e6.links`` (null: off): ``directions`` (``forward``: (a, a + 1 day) only;
 ``both``: also backwards), ``max_steps`` (steps, accepted and rejected, of the τ path, which is
 tried first; where it runs out the path goes on in arclength with the arclength follower's own
@@ -42,8 +45,6 @@ import time
 
 from .. import artifacts
 from ..errors import ConvergenceError
-from ..indirect.continuation import ContinuationOptions
-from . import multirev, perturbed as P
 
 # samples per revolution of the one propagation that reads the continued extremal's m_f and Δt
 SAMPLES_PER_REV = 20
@@ -65,6 +66,8 @@ def continue_to(start, tr_to, scan: dict, pc: dict, case: str, label: str, setti
     the solved extremal ``start`` (a :class:`~spaceopt.indirect.chain.Solution` at date a) to date
     b: ``tr_to`` is b's problem, ``scan`` the scalars of the scan's solution there (its
     artifact's ``m_f_kg`` and ``tof_days``)."""
+    from ..indirect.continuation import ContinuationOptions     # the solver, for the link jobs only
+    from . import multirev, perturbed as P
     t0 = time.perf_counter()
     options = ContinuationOptions(max_steps=int(settings["max_steps"]), label=label)
     rec = {"scan_m_f_kg": scan["m_f_kg"], "scan_tof_days": scan["tof_days"]}
