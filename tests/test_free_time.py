@@ -246,7 +246,7 @@ def perturbed_e1(e1_g22_era):
 def test_the_perturbed_extremal_is_certified_a_maximum_and_kept(perturbed_e1):
     sol, opt, (out, rec) = perturbed_e1
     assert rec["status"] == "maximum" and rec["certified"]
-    (t_lo, m_lo, phi_lo), (t_hi, m_hi, phi_hi) = rec["points"][0], rec["points"][-1]
+    (t_lo, _, phi_lo), (t_hi, _, phi_hi) = rec["points"][0], rec["points"][-1]
     assert phi_lo < 0 < phi_hi and t_hi - t_lo == pytest.approx(2 * opt.probe_days)
     assert abs(rec["tof_days"] - rec["t0_days"]) < 1e-3 and rec["free_time_residual"] < 1e-8
     np.testing.assert_allclose(out.z, sol.z, rtol=1e-6, atol=1e-9)
