@@ -130,6 +130,18 @@ def case_corrector(pc: dict, case: str) -> str:
     return value
 
 
+def _at_n_rev(cfg: dict, where: str, what: str) -> list[tuple[float, object, str]]:
+    """The entries of ``cfg``'s ``at_n_rev`` mapping ({revolution count: ``what``}), checked:
+    (count, value, its config key)."""
+    counts = cfg.get("at_n_rev", {})
+    if not isinstance(counts, dict):
+        raise ConfigError(f"{where}.at_n_rev", counts, f"expected a mapping {{revolution count: {what}}}")
+    for count, value in counts.items():
+        if isinstance(count, bool) or not isinstance(count, (int, float)) or count <= 0:
+            raise ConfigError(f"{where}.at_n_rev.{count}", value, "the key must be a positive revolution count")
+    return [(float(count), value, f"{where}.at_n_rev.{count}") for count, value in counts.items()]
+
+
 def case_model_step(cc: dict, model: str, path: str, n_rev: float | None = None) -> dict:
     """Case option ``model_step`` ({model: settings}): how the warm start into that model is
     followed, ``path`` ('tau', the default: τ, then its fallbacks; 'arclength': the model blend
@@ -168,15 +180,10 @@ def case_model_step(cc: dict, model: str, path: str, n_rev: float | None = None)
         val = cfg[key]
         where = f"{where}.{key}"
         check(val, where, ("path", *STEP_SETTINGS, "at_n_rev"))
-        counts = val.get("at_n_rev", {})
-        if not isinstance(counts, dict):
-            raise ConfigError(f"{where}.at_n_rev", counts, "expected a mapping {revolution count: settings}")
         chosen = {}
-        for count, settings in counts.items():
-            if isinstance(count, bool) or not isinstance(count, (int, float)) or count <= 0:
-                raise ConfigError(f"{where}.at_n_rev.{count}", settings, "the key must be a positive revolution count")
-            check(settings, f"{where}.at_n_rev.{count}", STEP_SETTINGS)
-            if n_rev is not None and float(count) == float(n_rev):
+        for count, settings, key in _at_n_rev(val, where, "settings"):
+            check(settings, key, STEP_SETTINGS)
+            if n_rev is not None and count == float(n_rev):
                 chosen = settings
         return {**{k: v for k, v in val.items() if k != "at_n_rev"}, **chosen}
     return _per_model(cc, "model_step", model, path, {}, read)
@@ -225,16 +232,9 @@ def _model_from_entry(models: list, case: str, target: str, entry, where: str) -
     for key, value in entry.items():
         if key not in ("model", "at_n_rev"):
             raise ConfigError(f"{where}.{key}", value, "unknown setting (expected model, at_n_rev)")
-    counts = entry.get("at_n_rev", {})
-    if case != "e8" and counts:
-        raise ConfigError(f"{where}.at_n_rev", counts, "only E8 has revolution counts")
-    if not isinstance(counts, dict):
-        raise ConfigError(f"{where}.at_n_rev", counts, "expected a mapping {revolution count: start model}")
-    at_n_rev = {}
-    for count, value in counts.items():
-        if isinstance(count, bool) or not isinstance(count, (int, float)) or count <= 0:
-            raise ConfigError(f"{where}.at_n_rev.{count}", value, "the key must be a positive revolution count")
-        at_n_rev[float(count)] = start(value, f"{where}.at_n_rev.{count}")
+    if case != "e8" and entry.get("at_n_rev"):
+        raise ConfigError(f"{where}.at_n_rev", entry["at_n_rev"], "only E8 has revolution counts")
+    at_n_rev = {count: start(value, key) for count, value, key in _at_n_rev(entry, where, "start model")}
     return start(entry.get("model", models[models.index(target) - 1]), f"{where}.model"), at_n_rev
 
 
