@@ -54,25 +54,3 @@ def test_planning_the_workflow_imports_no_solver():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
 
-
-REPORT_SCRIPTS = ("perturbed_tables", "perturbed_paper_section", "perturbed_figures", "perturbed_existence_table",
-                  "force_shares_table", "multirev_tables", "multirev_paper", "multirev_figures")
-
-
-def test_the_report_jobs_import_neither_jax_nor_the_solver():
-    """The tables, figures and paper-section jobs read artifacts only: their scripts' spaceopt
-    imports load neither JAX, SciPy's integrators nor the solver (1.2-2.9 s of CPU each before
-    they were split from the verifier and the solve functions). One process imports them all, one
-    script after the other, and names the first script after which a heavy module is loaded."""
-    root = Path(__file__).resolve().parents[1]
-    heavy = ("jax", "scipy.integrate", "diffrax", "optimistix", "spaceopt.indirect.chain")
-    code = ["import sys"]
-    for script in REPORT_SCRIPTS:
-        lines = [re.sub(r"\s*#.*$", "", line)
-                 for line in (root / "workflow/scripts" / f"{script}.py").read_text().splitlines()
-                 if re.match(r"(from spaceopt[\w.]* import |import spaceopt)", line)]
-        assert lines, script
-        code += [*lines, f"loaded = sorted(m for m in {heavy!r} if m in sys.modules)",
-                 f"assert not loaded, ({script!r}, loaded)"]
-    out = subprocess.run([sys.executable, "-c", "\n".join(code)], capture_output=True, text=True, cwd=root)
-    assert out.returncode == 0, out.stderr[-1500:]
