@@ -31,6 +31,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from machine import finish, machine_facts
+
 ROOT = Path(__file__).resolve().parents[1]
 EVENTS = {"/jax/core/compile/jaxpr_trace_duration": "trace_s",
           "/jax/core/compile/jaxpr_to_mlir_module_duration": "lower_s",
@@ -126,6 +128,7 @@ def main(argv=None):
     if not args.base:
         ap.error("--base: the git revision to compare this tree with is required")
     from spaceopt import artifacts
+    machine = machine_facts()
     base_rev = subprocess.run(["git", "rev-parse", args.base], cwd=ROOT, capture_output=True, text=True,
                               check=True).stdout.strip()
     with tempfile.TemporaryDirectory(prefix="spaceopt-base-") as base_dir:
@@ -150,7 +153,7 @@ def main(argv=None):
            "second_cap_ratio_this_to_base": {k: second["this"][k] / second["base"][k] for k in keys},
            "same_extremal": all(abs(p["m_f"] - runs["base"][0]["m_f"]) < 1e-9
                                 for r in runs["this"] + runs["base"] for p in (r, r["second_cap"])),
-           "runs": runs, "machine": {"cpus": os.cpu_count(), "load_avg_end": os.getloadavg()},
+           "runs": runs, "machine": finish(machine),
            "provenance": artifacts.provenance({"base": base_rev, "rounds": args.rounds})}
     artifacts.write_json(args.out, out)
     print(json.dumps({k: out[k] for k in ("summary_median", "ratio_this_to_base", "second_cap_median",

@@ -42,6 +42,8 @@ sys.path.insert(0, str(ROOT / "src"))
 from spaceopt.artifacts import provenance, write_json  # noqa: E402
 from spaceopt.report.compare import published_lookup  # noqa: E402
 
+from machine import finish, machine_facts  # noqa: E402
+
 PUBLISHED = ROOT / "config/published/discrete_libration_zonotope.yaml"
 D4_TARGET_S = 0.1
 DAG_TARGET_S = 120.0
@@ -185,8 +187,7 @@ def main(argv=None):
     t_start = time.perf_counter()
     d2cfg, d4cfg = _study_cfg("libration_lp"), _study_cfg("orbit_correction")
     repeats = args.repeats or d4cfg["timing_repeats"]
-    result = {"machine": {"cpu_count": os.cpu_count(), "loadavg_start": os.getloadavg(),
-                          "python": sys.version.split()[0]}}
+    result = {"machine": machine_facts()}
     result["d4_orbit_correction"] = bench_d4(d4cfg, repeats)
     result["d2_libration_lp"] = bench_d2(d2cfg, max(3, repeats // 3))
     if not args.skip_optional:
@@ -196,7 +197,7 @@ def main(argv=None):
         result["dag_discrete"] = bench_dag(args.cores)
         print(f"DAG (discrete, {args.cores} cores): {result['dag_discrete']['wall_s']:.1f} s, "
               f"rc={result['dag_discrete']['returncode']}", flush=True)
-    result["machine"]["loadavg_end"] = os.getloadavg()
+    finish(result["machine"])
     d4 = result["d4_orbit_correction"]["methods"]
     result["summary"] = {
         "d4_all_methods_within_0.1s_wall": all(v["meets_target_wall"] for v in d4.values()),

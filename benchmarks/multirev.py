@@ -18,6 +18,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from machine import finish, machine_facts
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -68,7 +70,7 @@ def main(argv=None):
     from spaceopt.studies import multirev_config
 
     cfg = yaml.safe_load((ROOT / "config" / "studies" / "multirev.yaml").read_text())["multirev"]
-    out = {"machine": {"cpus": os.cpu_count(), "load_avg_start": os.getloadavg()}, "cases": {}}
+    out = {"machine": machine_facts(), "cases": {}}
     for case in args.cases:
         cc = cfg["cases"][case]
         thrust = cc["ot_thrust_N"][0]
@@ -87,7 +89,7 @@ def main(argv=None):
             "targets": {"e2_chain_warm_s_max": 60.0, "ratio_max": 30.0},
         }
         print(case, json.dumps(out["cases"][case], indent=1), file=sys.stderr, flush=True)
-    out["machine"]["load_avg_end"] = os.getloadavg()
+    finish(out["machine"])
     out["provenance"] = artifacts.provenance(cfg)
     artifacts.write_json(args.out, out)
 

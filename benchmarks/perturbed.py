@@ -68,6 +68,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from machine import finish, machine_facts
+
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ("unperturbed", "g44_moon_sun")
 PROPAGATION_MODELS = ("unperturbed", "j2", "g44_moon_sun")
@@ -769,13 +771,13 @@ def main(argv=None):
     report = {k: v for k, v in report.items()
               if k in ("propagation", "e8", "field_profile", "e8_exact_route", "corrector", "threads", "sensitivity",
                        "chain_rtol")}
-    report["machine"] = {"cpu_count": os.cpu_count(), "load_avg_start": os.getloadavg(),
-                         "jacobian_threads": int(os.environ.get("SPACEOPT_THREADS", "1")), "configfiles": a.configfile}
+    report["machine"] = machine_facts(jacobian_threads=int(os.environ.get("SPACEOPT_THREADS", "1")),
+                                      configfiles=a.configfile)
     report["measured"] = measured(Path(a.results))
     report["target_s"] = TARGET_S
 
     def write():
-        report["machine"]["load_avg_end"] = os.getloadavg()
+        finish(report["machine"])
         out_path.parent.mkdir(parents=True, exist_ok=True)
         out_path.write_text(json.dumps(report, indent=2) + "\n")
 

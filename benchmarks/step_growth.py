@@ -15,12 +15,13 @@ Usage: python benchmarks/step_growth.py [--paths e1 e2 e5] [--out results/benchm
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
+
+from machine import finish, machine_facts
 
 ROOT = Path(__file__).resolve().parents[1]
 RULES = ("iterations", "residual")
@@ -70,7 +71,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     from spaceopt import artifacts
     from spaceopt.indirect.continuation import ContinuationOptions
-    out = {"machine": {"cpus": os.cpu_count(), "load_avg_start": os.getloadavg()}, "paths": {}}
+    out = {"machine": machine_facts(), "paths": {}}
     for name in args.paths:
         run = PATHS[name]()
         run(ContinuationOptions(verbose=False))                      # warm-up (compilation)
@@ -90,7 +91,7 @@ def main(argv=None):
         out["paths"][name] = row
         print(name, {r: (row[r]["jacobian_evaluations"], round(row[r]["wall_s"], 1)) for r in RULES},
               row["max_abs_z_difference"], file=sys.stderr, flush=True)
-    out["machine"]["load_avg_end"] = os.getloadavg()
+    finish(out["machine"])
     out["provenance"] = artifacts.provenance({"paths": args.paths})
     artifacts.write_json(args.out, out)
 

@@ -41,6 +41,8 @@ sys.path.insert(0, str(ROOT / "src"))
 
 from spaceopt.artifacts import provenance, read_json, write_json  # noqa: E402
 
+from machine import finish, machine_facts  # noqa: E402
+
 TARGET_S = 600.0
 
 
@@ -185,8 +187,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     t_start = time.perf_counter()
     mr, sw = _cfg()
-    result = {"machine": {"cpu_count": os.cpu_count(), "loadavg_start": os.getloadavg(),
-                          "python": sys.version.split()[0]},
+    result = {"machine": machine_facts(),
               "target_s": TARGET_S, "strategy": {"rows": sw["rows"], "numerics": sw["numerics"]}}
     if args.dag:
         result["dag"] = run_dag(args.cores, Path(args.results))
@@ -194,7 +195,7 @@ def main(argv=None):
     result["pipeline_run"] = from_results(Path(args.results), sw, args.cores)
     if args.micro:
         result["micro"] = micro()
-    result["machine"]["loadavg_end"] = os.getloadavg()
+    finish(result["machine"])
     pr = result["pipeline_run"]
     result["summary"] = {
         "cells_computed": pr["cells_total"], "table_cells": pr["table_cells"],

@@ -25,3 +25,6 @@ def test_the_discrete_harness_runs_every_study_part_and_writes_its_verdicts(tmp_
     assert d["d2_libration_lp"]["first_L1_lp"]["median_wall_s"] > 0
     assert {"d4_all_methods_within_0.1s_wall", "d4_all_methods_within_0.1s_cpu"} <= set(d["summary"])
     assert "provenance" in d
+    machine = d["machine"]                     # benchmarks/machine.py: the block every harness writes
+    assert {"cpu_model", "cpu_count", "python", "load_avg_start", "load_avg_end"} <= set(machine)
+    assert 0 < machine["reference_s"] < 60
