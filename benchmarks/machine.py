@@ -40,8 +40,8 @@ def cpu_model() -> str:
 
 
 def reference_seconds(rounds: int = 3) -> float:
-    """The least wall time of ``rounds`` runs of a fixed loop of float multiply-adds (about 0.1 s
-    on the machines of November 2026)."""
+    """The least wall time of ``rounds`` runs of a fixed loop of float multiply-adds (0.07–0.09 s
+    on an idle machine of November 2026, twice that with both cores busy)."""
     best = float("inf")
     for _ in range(rounds):
         t0, x = time.perf_counter(), 0.0
