@@ -1,8 +1,8 @@
 """The machine a benchmark ran on: the ``machine`` block of every harness's JSON.
 
-The machines of this workplace run this project's loads at speeds up to 3× apart (the same
-E8 chain of code f33fa18: 153.9 s on one machine, 262.6 s alone on another, 480 s on a third;
-docs/perturbed-e6-e7-e8.md, "fifty-third session"). A time is therefore compared with another
+The machines of this workplace run this project's loads at speeds up to 3× apart (the E8 chain
+at 500 rev, code of 28 or 30 Nov that runs at one speed side by side: 153.9 s on one machine,
+232–326 s alone on another, 480 s on a third; docs/perturbed-e6-e7-e8.md, "fifty-third session"). A time is therefore compared with another
 tree's only side by side in one run; a number from another session's machine says nothing about
 the code. This block tells the machines apart and flags a slow or busy one:
 
