@@ -42,7 +42,7 @@ PYKEP_PY = HERE / ".venv-pykep" / "bin" / "python"
 sys.path.insert(0, str(HERE))
 
 from multirev import propagation_time  # noqa: E402  (same measure as the multirev benchmark)
-from machine import machine_facts  # noqa: E402
+from machine import finish, machine_facts  # noqa: E402
 from peer_problems import ORDER, problems  # noqa: E402
 
 GOALS = {"mass_rel_diff_max": 1e-4, "our_success_rate_min": 1.0, "time_ratio_max": 0.5}
@@ -289,7 +289,7 @@ def main(argv=None):
         results[name] = {"problem": probs[name], "ours": o, "pykep": p, "comparison": compare(o, p)}
         results = {k: results[k] for k in ORDER if k in results}
         payload = {"goals": GOALS,
-                   "machine": {**machine, "load_avg_end": os.getloadavg(), "nice": os.nice(0)},
+                   "machine": finish({**machine, "nice": os.nice(0)}),
                    "method": __doc__.strip().splitlines()[0], "problems": results,
                    "provenance": artifacts.provenance({"starts": args.starts, "seed": args.seed, "eps": args.eps,
                                                        "eps_low": args.eps_low, "problems": args.problems},
