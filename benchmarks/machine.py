@@ -12,8 +12,9 @@ the code. This block tells the machines apart and flags a slow or busy one:
 - ``reference_s``: the least of three timings of a fixed single-threaded pure-Python workload
   (:func:`reference_seconds`). It moves with the core's speed and with time stolen from it, as the
   solver's compiled loops do, but it is an indicator, not a factor to rescale other times by:
-  XLA's loops and the interpreter do not slow down alike (the E8 chain at 500 rev took 205–299 s
-  in four alternated rounds on one idle machine while ``reference_s`` stayed at 0.087–0.090 s;
+  XLA's loops and the interpreter do not slow down alike (the E8 LP → OT path at 500 rev took
+  205–299 s in one script over four alternated rounds on one idle machine, and 257–273 s in the
+  benchmark's runs between them, whose ``reference_s`` stayed at 0.087–0.090 s;
   docs/perturbed-e6-e7-e8.md, "fifty-fourth session").
 
 Written by hand: the standard library has the parts (``os``, ``platform``) and no package of the
