@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import pickle
 import sys
 import time
@@ -39,7 +40,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
-import perturbed as bench  # noqa: E402  (benchmarks/perturbed.py: the profile merge, m_p and Δt)
+import perturbed as bench  # noqa: E402  (benchmarks/perturbed.py: the profile merge, the transfer at ε₁, m_p and Δt)
 from spaceopt.indirect import chain  # noqa: E402
 from spaceopt.indirect import hamiltonians as hm  # noqa: E402
 from spaceopt.indirect.continuation import ArclengthOptions  # noqa: E402
@@ -61,16 +62,16 @@ def main(argv=None):
     out.mkdir(parents=True, exist_ok=True)
     bench.CONFIGFILES[:] = [str(ROOT / "config/e8_exact.yaml"), str(ROOT / "benchmarks/e8_exact_no_survey.yaml")]
     pc = bench._perturbed_config()
-    eph = P.ephemeris_path(ROOT / "results", pc["cases"]["e8"]["ephemeris"])
 
-    def transfer(model, n_rev):
-        tr = P.transfer_from_config(pc, "e8", model, ephemeris=eph, n_rev=n_rev)
-        return dataclasses.replace(tr, eps_final=tr.eps_blend, path_arcs=1)
+    transfer = functools.partial(bench._e8_at_eps_blend, pc)    # (model, n_rev): single shooting at ε₁
 
     def stage(name, make):
         path, t0 = out / f"{name}.pkl", time.perf_counter()
-        sol = pickle.loads(path.read_bytes()) if path.exists() else make()
-        path.write_bytes(pickle.dumps(sol))
+        if path.exists():
+            sol = pickle.loads(path.read_bytes())
+        else:
+            sol = make()
+            path.write_bytes(pickle.dumps(sol))
         r = bench._propellant_and_time(sol)
         print(f"### {name}: m_p {r['m_p_kg']:.6f} kg, tof {r['tof_days']:.5f} d, "
               f"jacobians {sol.stats.get('jacobian_evaluations')}, {time.perf_counter() - t0:.1f} s", flush=True)
