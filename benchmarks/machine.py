@@ -2,9 +2,9 @@
 
 The machines of this workplace run this project's loads at speeds up to 3× apart (the E8 chain
 at 500 rev, code of 28 or 30 Nov that runs at one speed side by side: 153.9 s on one machine,
-232–326 s alone on another, 480 s on a third; docs/perturbed-e6-e7-e8.md, "fifty-third session"). A time is therefore compared with another
-tree's only side by side in one run; a number from another session's machine says nothing about
-the code. This block tells the machines apart and flags a slow or busy one:
+232–326 s alone on another, 480 s on a third; docs/perturbed-e6-e7-e8.md, "fifty-third
+session"). A time is therefore compared with another tree's only side by side in one run; a
+number from another session's machine says nothing about the code. This block tells the machines apart and flags a slow or busy one:
 
 - ``cpu_model``, ``cpu_count``, ``python``;
 - ``load_avg_start`` / ``load_avg_end`` (:func:`finish`): the load average, since wall times on a
