@@ -30,10 +30,10 @@ Nine parts, all written to ``results/benchmarks/perturbed.json`` (parts not reru
 5. ``e8_exact_route`` (``--exact-route N``): the E8 route to every model on the exact bang-bang
    map, stage by stage (:func:`e8_exact_route`).
 6. ``corrector`` (``--corrector-compare N``): the E8 LP → OT path to ε₁ (the chain's costliest
-   stage) at N revolutions with Newton's corrector and with the chord corrector, side by side in
-   one process after both maps are compiled, from the same LP solution: wall time, Jacobians,
-   residual evaluations, steps, m_p and Δt, and the ratio of the wall times
-   (:func:`corrector_comparison`).
+   stage) at N revolutions with each corrector (``--correctors``: Newton's, the chord corrector,
+   Broyden's), one after the other in one process after both maps are compiled, from the same LP
+   solution: wall time, Jacobians, residual evaluations, steps, m_p and Δt, and the ratios of the
+   wall times to the last corrector's (:func:`corrector_comparison`).
 7. ``threads`` (``--threads-compare N``): one Jacobian of the E8 4×4 → full blend at N
    revolutions with its sensitivity columns in one computation and split over ``--threads``
    threads (default 2), side by side (:func:`threads_comparison`). ``--threads k`` alone runs
@@ -69,6 +69,7 @@ import time
 from pathlib import Path
 
 from machine import finish, machine_facts
+from spaceopt.indirect.continuation import CORRECTORS
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ("unperturbed", "g44_moon_sun")
@@ -495,10 +496,11 @@ def e8_exact_route(n_rev: float, corrector: str | None = None, last_model: str |
     return out
 
 
-def corrector_comparison(n_rev: float) -> dict:
+def corrector_comparison(n_rev: float, correctors=CORRECTORS) -> dict:
     """E8 unperturbed LP → OT (the (3.3.1) blend to ε₁, the case's homotopy path) at ``n_rev``
-    with each corrector (``ContinuationOptions.corrector``), one after the other from the same
-    LP solution, both maps (full evaluation and residual alone) compiled beforehand."""
+    with each of ``correctors`` (``ContinuationOptions.corrector``), one after the other from the
+    same LP solution, both maps (full evaluation and residual alone) compiled beforehand; the
+    wall-time ratio of each to the last."""
     import jax.numpy as jnp
     from spaceopt.indirect import chain
     from spaceopt.indirect.shooting import residual, shoot
@@ -513,7 +515,7 @@ def corrector_comparison(n_rev: float) -> dict:
     for fn in (shoot, residual):                                # compile both before timing
         jnp.asarray(fn(sh, z0, 0.0, prm, *chain._path_tolerances(sh))[0]).block_until_ready()
     out = {"n_rev": n_rev, "path": path, "stage": "LP -> OT to eps_blend"}
-    for corrector in ("newton", "chord"):
+    for corrector in correctors:
         t0 = time.perf_counter()
         ot = chain.solve_ot(lp, tr.thrust, chain.ContinuationOptions(corrector=corrector),
                             label=f"bench/corrector/n{n_rev:g}/{corrector}", path=path)
@@ -521,7 +523,9 @@ def corrector_comparison(n_rev: float) -> dict:
         out[corrector] = {"wall_time_s": wall, "jacobian_evaluations": ot.stats["jacobian_evaluations"],
                           "residual_evaluations": ot.stats["residual_evaluations"], "steps": ot.stats["steps"],
                           "rejected_steps": ot.stats["rejected_steps"], **_propellant_and_time(ot)}
-    out["wall_time_ratio_newton_over_chord"] = out["newton"]["wall_time_s"] / out["chord"]["wall_time_s"]
+    for corrector in correctors[:-1]:
+        out[f"wall_time_ratio_{corrector}_over_{correctors[-1]}"] = (out[corrector]["wall_time_s"]
+                                                                     / out[correctors[-1]]["wall_time_s"])
     return out
 
 
@@ -737,7 +741,7 @@ def main(argv=None):
     ap.add_argument("--skip-e8", action="store_true")
     ap.add_argument("--exact-route", type=float, nargs="*", default=[],
                     help="revolution counts of the E8 route on the exact bang-bang map (e8_exact_route)")
-    ap.add_argument("--exact-route-corrector", choices=("newton", "chord"), default=None,
+    ap.add_argument("--exact-route-corrector", choices=CORRECTORS, default=None,
                     help="the continuation corrector of the exact route's chain (default: the case's corrector)")
     ap.add_argument("--exact-route-to", default=None, help="the exact route's last model (default: the case's last)")
     ap.add_argument("--exact-route-sensitivity-rtol", type=float, nargs="*", default=[None],
@@ -747,7 +751,9 @@ def main(argv=None):
                          "--sensitivity-rtol (sensitivity)")
     ap.add_argument("--sensitivity-rtol", type=float, default=1e-9)
     ap.add_argument("--corrector-compare", type=float, nargs="*", default=[],
-                    help="revolution counts of the E8 LP -> OT path with either corrector (corrector)")
+                    help="revolution counts of the E8 LP -> OT path with each of --correctors (corrector)")
+    ap.add_argument("--correctors", nargs="+", choices=CORRECTORS, default=list(CORRECTORS),
+                    help="the correctors --corrector-compare runs, in this order (ratios to the last)")
     ap.add_argument("--chain-rtol-compare", type=float, nargs="*", default=[],
                     help="revolution counts of the E8 unperturbed chain, its end point's evaluations at the "
                          "default path rtol against --chain-rtol (chain_rtol)")
@@ -816,7 +822,7 @@ def main(argv=None):
         report.setdefault("threads", {})[f"n{n:g}"] = threads_comparison(n, a.threads or 2, a.rounds)
         write()
     for n in a.corrector_compare:
-        report.setdefault("corrector", {})[f"n{n:g}"] = corrector_comparison(n)
+        report.setdefault("corrector", {})[f"n{n:g}"] = corrector_comparison(n, tuple(a.correctors))
         write()
     for n in a.chain_rtol_compare:
         report.setdefault("chain_rtol", {})[f"n{n:g}"] = chain_rtol_comparison(n, a.chain_rtol, a.rounds)

@@ -1,7 +1,8 @@
-"""The chord corrector of the continuation followers (``ContinuationOptions.corrector``): the
-corrector's later steps reuse the Jacobian of its first evaluation and evaluate f alone, a fresh
-Jacobian where a chord step reduces |F| without halving it. Same paths, same end points as the
-Newton corrector, fewer Jacobians."""
+"""The chord and Broyden correctors of the continuation followers (``ContinuationOptions.corrector``):
+the chord corrector's later steps reuse the Jacobian of its first evaluation and evaluate f
+alone, a fresh Jacobian where a chord step reduces |F| without halving it; Broyden's carries the
+Jacobian from step to step with rank-one updates. Same paths, same end points as the Newton
+corrector, fewer Jacobians."""
 import numpy as np
 import pytest
 
@@ -32,19 +33,50 @@ class Counted:
 
 @pytest.mark.parametrize("follower, options", [(Continuation, ContinuationOptions),
                                                (ArclengthContinuation, ArclengthOptions)])
-def test_chord_corrector_follows_the_newton_path_with_fewer_jacobians(follower, options):
+def test_chord_and_broyden_correctors_follow_the_newton_path_with_fewer_jacobians(follower, options):
     ends = {}
-    for mode in ("newton", "chord"):
+    for mode in ("newton", "chord", "broyden"):
         fz = Counted()
         cont = follower(fz.evaluate, options(verbose=False, corrector=mode, h_max=0.5), residual=fz.residual,
                         path_residual=fz.residual)
         z, _ = cont.run(np.array([0.0, 0.0]))
         assert np.abs(Counted.f(z, 1.0)).max() < 1e-10
         ends[mode] = (z, fz.jacobians, cont.stats)
-    (z_n, jac_n, st_n), (z_c, jac_c, st_c) = ends["newton"], ends["chord"]
+    (z_n, jac_n, st_n), (z_c, jac_c, st_c), (z_b, jac_b, st_b) = ends["newton"], ends["chord"], ends["broyden"]
     np.testing.assert_allclose(z_c, z_n, atol=1e-10)
+    np.testing.assert_allclose(z_b, z_n, atol=1e-10)
     assert st_n.residuals == 0 and st_c.residuals > 0      # chord steps were taken
     assert st_c.jacobians == jac_c and jac_c < jac_n
+    assert st_b.jacobians == jac_b and jac_b < jac_c       # the Jacobian carried across steps
+
+
+def test_broyden_retakes_a_step_that_its_carried_jacobian_spoils():
+    """f = z + z³ from z = 1 with a carried Jacobian of the wrong sign (−1): the step goes to
+    z = 3 (|F| 2 → 30); the corrector retakes it with J evaluated at z = 1 (4), once, then goes
+    on by Broyden steps (f alone, rank-one updates) to the root."""
+    jac_at = []
+
+    def residual(x, held=None):
+        F = np.atleast_1d(x + x ** 3)
+        if held is not None:
+            return F, held
+        jac_at.append(float(x[0]))
+        return F, (np.array([[1 + 3 * x[0] ** 2]]),)
+
+    def newton_step(x, F, ev):
+        return x - np.linalg.solve(ev[0], F)
+
+    def update(ev, dx, dF):
+        return (ev[0] + np.outer(dF - ev[0] @ dx, dx) / np.dot(dx, dx),)
+
+    cont = Continuation(lambda z, t: None, ContinuationOptions(verbose=False, corrector="broyden", tol_step=1e-6,
+                                                               max_chord=12),
+                        path_residual=lambda z, t: None)
+    accepted, x, F, ev, nF, evals = cont._correct(np.array([1.0]), residual, newton_step,
+                                                  carried=(np.array([[-1.0]]),), update=update)
+    assert accepted and abs(x[0]) < 1e-6
+    assert jac_at == [1.0]                      # the one fresh Jacobian: at the spoilt step's start
+    assert evals > 3                            # the rest were evaluations of f alone
 
 
 def test_a_slow_chord_step_takes_a_fresh_jacobian_and_goes_on_by_newton():

@@ -624,7 +624,7 @@ def test_model_from_can_name_the_start_of_one_revolution_count():
 
 
 def test_corrector_is_read_and_reaches_the_chain_only():
-    """Case option corrector (newton | chord): Newton's leaves the followers' defaults; chord goes
+    """Case option corrector (newton | chord | broyden): Newton's leaves the followers' defaults; chord goes
     into the options of the chain from the zero guess, not into the warm starts' (they keep
     Newton's); a bad value is a one-line error naming the key."""
     assert C.case_corrector(PC, "e8") == PC["cases"]["e8"].get("corrector", "newton")
@@ -635,6 +635,8 @@ def test_corrector_is_read_and_reaches_the_chain_only():
     assert P.warm_start_options(pc, "e8", model="j2") is None
     assert P.warm_start_options(pc, "e8", model="g44_moon_sun", n_rev=500).corrector == "newton"
     pc["cases"]["e8"]["corrector"] = "broyden"
+    assert P.chain_options(pc, "e8").corrector == "broyden"
+    pc["cases"]["e8"]["corrector"] = "secant"
     with pytest.raises(ConfigError, match=r"perturbed\.cases\.e8\.corrector"):
         P.chain_options(pc, "e8")
 

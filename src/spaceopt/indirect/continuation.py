@@ -76,7 +76,18 @@ corrector's first does, the others about an eighth of it). Measured on E8 LP →
 ε₁) at 200 revolutions: a residual costs 0.09 s against 0.77 s for the full evaluation;
 Newton's corrector 109 Jacobians, 34 steps, 83 s; the chord corrector 52 Jacobians and 120
 residuals, 40 steps, 52 s, the same extremal (m_p to 1e-9; docs/perturbed-e6-e7-e8.md,
-"thirty-seventh session"). ``polish_crossings`` > 0: the final polish of a map with edges,
+"thirty-seventh session"). ``corrector`` 'broyden' (Broyden's corrector, Jacobian reuse across steps):
+as the chord corrector, but the Jacobian is carried from step to step and kept current by
+Broyden's rank-one update B ← B + (ΔF − B Δu) Δuᵀ/|Δu|² after every evaluation of f alone (the
+first from the last accepted point to the predicted one; arclength: B = [∂f/∂z, ∂f/∂τ + b], τ
+follower: ∂f/∂z alone, both points at one τ), the predictor's tangent from it; a fresh Jacobian
+only where a step reduces |F| without halving it (at its end, as the chord) or not at all (the
+step retaken from its start with J there, once). Measured on E8 LP → OT (arclength, ε₁, path
+rtol 1e-7, side by side after the chord): at 500 revolutions 25 Jacobians and 376 residuals
+against 81 and 213, 85 steps against 63, 110.2 s against 236.9 s (2.15×), the same extremal (m_p
+to 4e-11 relative); at 200, 25 Jacobians against 52 and the same wall time (34.0 s against
+30.0–35.3 s): a Jacobian there costs about 4.5 residuals, at 500 about 20
+(docs/perturbed-e6-e7-e8.md, "fifty-fifth session"). ``polish_crossings`` > 0: the final polish of a map with edges,
 where f jumps (the exact bang-bang map where a flat arc is born), steps across an edge that many
 times and then keeps to the side it reached (:meth:`Continuation._newton_polish`).
 """
@@ -118,7 +129,7 @@ class ContinuationOptions:
     flat_chord: int = 30                # chord steps per valley point; secant steps at most
     flat_restarts: int = 3              # rounds of flat root + Newton in the final polish (_polish)
     end_overshoot: float = 0.0          # arclength: landing on τ = 1 (module docstring); 0 = none
-    corrector: str = "newton"           # or 'chord': later corrector steps without a Jacobian (module docstring)
+    corrector: str = "newton"           # or 'chord' | 'broyden': corrector steps without a Jacobian (module docstring)
     max_chord: int = 6                  # chord corrector: evaluations per step at most
     polish_crossings: int = 0           # final polish: steps taken across an edge of the map (_newton_polish)
 
@@ -144,7 +155,7 @@ class ContinuationStats:
 
 
 GROWTH = ("iterations", "residual")
-CORRECTORS = ("newton", "chord")
+CORRECTORS = ("newton", "chord", "broyden")
 POLISH_FAILED = "final Newton polish did not converge"     # the diagnosis reason (chain._run_multiple)
 ACCEPTED_UPDATES = ("always", "revert")
 ITERATION_GROWTH = {1: 2.0, 2: 1.5, 3: 1.2}
@@ -255,8 +266,9 @@ class Continuation:
             raise ValueError(f"accepted_update {self.opt.accepted_update!r}: expected one of {ACCEPTED_UPDATES}")
         if self.opt.corrector not in CORRECTORS:
             raise ValueError(f"corrector {self.opt.corrector!r}: expected one of {CORRECTORS}")
-        if self.opt.corrector == "chord" and path_residual is None:
-            raise ValueError("corrector 'chord' needs path_residual (f at the path tolerances, no derivatives)")
+        if self.opt.corrector != "newton" and path_residual is None:
+            raise ValueError(f"corrector {self.opt.corrector!r} needs path_residual "
+                             "(f at the path tolerances, no derivatives)")
         self.path_residual = path_residual
         self.stats = ContinuationStats()
         self._h_cap = float("inf")      # 0.8 of the last rejected step ('residual' growth)
@@ -365,8 +377,12 @@ class Continuation:
                 ft, Jt, fttau, okt = self._eval(zz, tt)
                 return None if not okt or not np.all(np.isfinite(ft)) else (ft - w(tt) * b, (ft, Jt, fttau))
 
+            def update(e, dzz, dF):                      # Broyden: J alone (both points at τ = tt)
+                return e[0], e[1] + np.outer(dF - e[1] @ dzz, dzz) / np.dot(dzz, dzz), e[2]
+
             accepted, zt, Ft, ev, nF, iters = self._correct(zt, residual,
-                                                                  lambda zz, Fz, e: zz + _solve(e[1], -Fz, opt.step_rcond))
+                                                                  lambda zz, Fz, e: zz + _solve(e[1], -Fz, opt.step_rcond),
+                                                                  carried=(f, J, ftau), update=update)
             if accepted:
                 ft, Jt, fttau = ev
                 prev_tangent = (dz, h)
@@ -405,7 +421,7 @@ class Continuation:
     def _grow(self, h, iters, nF, h_max):
         """The step after an accepted step h whose corrector used ``iters`` evaluations and whose
         first evaluation (the predicted point, when iters = 1) had residual ``nF``."""
-        if self.opt.corrector == "chord":      # the evaluations after the first cost no Jacobian
+        if self.opt.corrector != "newton":     # the evaluations after the first cost no Jacobian
             iters = max(1, iters - 1)
         factor = ITERATION_GROWTH.get(iters, 0.8)
         if self.opt.step_growth == "residual":
@@ -423,7 +439,7 @@ class Continuation:
         self.stats.history.append({"tau": tau, "h": h, "rejected": self.last_rejection})
         self._log(f"  rejected at tau={tau:.6f}, h {h:.3g} -> {0.3 * h:.3g} ({self.last_rejection})")
 
-    def _correct(self, x, residual, newton_step):
+    def _correct(self, x, residual, newton_step, carried=None, update=None, origin=None):
         """The Newton corrector of both followers: x <- newton_step(x, F, ev) until |F| <= tol_step.
 
         ``residual(x)`` gives (F, ev), or None when the propagation failed; ``ev`` is the evaluation
@@ -436,23 +452,35 @@ class Continuation:
         why the corrector gave up) is kept in ``last_rejection`` for the log and the diagnosis.
         With the chord corrector, ``residual(x, held)`` evaluates f alone and
         returns the held evaluation's derivatives (module docstring); ``max_chord`` replaces
-        ``max_corrector``.
+        ``max_corrector``. With Broyden's (module docstring) the step starts from the ``carried``
+        evaluation (None: a fresh one at x), ``update(ev, Δx, ΔF)`` is its rank-one update after
+        each evaluation of f alone, the first from ``origin`` = (x, F) of the last accepted point
+        (None: none), and a step that does not reduce |F| at all is retaken from its start with a
+        fresh Jacobian there, once.
         """
         opt = self.opt
-        chord = opt.corrector == "chord"
+        chord = opt.corrector in ("chord", "broyden")
+        broyden = opt.corrector == "broyden"
         limit = opt.max_chord if chord else opt.max_corrector
         prev = F = ev = nF = x_prev = d = held = None
+        if broyden:
+            held, last = carried, origin        # last: (x, F) of the last evaluation, Broyden's secant
         norms, why = [], f"|F| > {opt.tol_step:g} after {limit} iterations"
         evals = newton_steps = backtracks = 0
         alpha = 1.0
+        step_exact = False                      # the last step's Jacobian was evaluated at its start
         while True:
             evals += 1
-            out = residual(x) if held is None else residual(x, held)
             fresh = held is None                    # the evaluation at x has its own Jacobian
+            out = residual(x) if fresh else residual(x, held)
             if out is not None:
                 F, ev = out
-                if chord and held is None:
+                if broyden and not fresh and last is not None:
+                    ev = update(ev, x - last[0], F - last[1])
+                if chord:
                     held = ev
+                if broyden:
+                    last = (x, F)
                 nF = _norm(F)
                 if not norms:
                     self.predicted_residual = nF    # |F| at the predictor's point (the log)
@@ -467,8 +495,21 @@ class Continuation:
                 if out is not None:
                     F, ev = out
                     held = ev
+                    if broyden:
+                        last = (x, F)
                     norms.append("(J)")
                     slow = False
+            elif broyden and prev is not None and (out is None or slow) and not step_exact and alpha == 1.0:
+                # a step by a carried Jacobian that did not reduce |F|: retaken with J at its start
+                evals += 1
+                out = residual(x_prev)
+                if out is not None:
+                    F, ev = out
+                    held, last, step_exact = ev, (x_prev, F), True
+                    norms.append("(J at the step's start)")
+                    d = newton_step(x_prev, F, ev) - x_prev
+                    x = x_prev + d
+                    continue
             if out is None or slow:
                 if prev is None or backtracks >= opt.max_backtracks:
                     why = "propagation failed" if out is None else "not contracting"
@@ -481,6 +522,7 @@ class Continuation:
             if newton_steps + 1 >= limit:                   # max_corrector (max_chord) full-step evaluations
                 break
             prev, x_prev, alpha = nF, x, 1.0
+            step_exact = fresh or norms[-1] == "(J)"
             d = newton_step(x, F, ev) - x
             x = x + d
             newton_steps += 1
@@ -809,9 +851,10 @@ class ArclengthContinuation(Continuation):
 
         if saved is None:
             t = tangent(J, ftau)
-            h, F = opt.h_init, f - b
-        else:
+            h, F, carried = opt.h_init, f - b, (J, ftau)
+        else:       # Broyden's corrector starts with a fresh Jacobian
             z, tau, t, h, F = saved["z"], float(saved["tau"]), saved["tangent"], float(saved["h"]), saved["F"]
+            carried = None
         landings = 0
         while True:
             if 0 < opt.end_overshoot and 0.0 <= 1.0 - tau <= opt.end_overshoot and t[-1] > 0:
@@ -834,7 +877,13 @@ class ArclengthContinuation(Continuation):
                 M = np.vstack([np.hstack([ev[0], (ev[1] + b)[:, None]]), t[None, :]])
                 return u + _lstsq(M, -np.concatenate([Fc, [np.dot(t, u - up)]]), opt.step_rcond)
 
-            accepted, uc, Fc, ev, nF, iters = self._correct(up.copy(), residual, newton_step)
+            def update(e, du, dF):                       # Broyden on A = [J, f_τ + b]
+                A = np.hstack([e[0], (e[1] + b)[:, None]])
+                A = A + np.outer(dF - A @ du, du) / np.dot(du, du)
+                return A[:, :n], A[:, n] - b
+
+            accepted, uc, Fc, ev, nF, iters = self._correct(up.copy(), residual, newton_step, carried, update,
+                                                            (u, F))
             if not accepted:
                 self._reject(tau, h)
                 h *= 0.3
@@ -856,7 +905,7 @@ class ArclengthContinuation(Continuation):
                 raise self._diagnose(f"the path turned back and ran below tau = {opt.tau_floor:g}",
                                      uc[:n], uc[n], h, Fc)
             t = tangent(*ev, t)
-            z, tau, F = uc[:n], uc[n], Fc
+            z, tau, F, carried = uc[:n], uc[n], Fc, ev
             self.stats.history.append({"tau": tau, "h": h, "iters": iters, "residual": nF})
             self._log(f"s-step {self.stats.steps}: tau={tau:.6f} h={h:.3g} corr={iters} "
                       f"|F_pred|={self.predicted_residual:.1e} |F|={nF:.2e} "

@@ -117,8 +117,9 @@ def case_switching(pc: dict, case: str) -> str:
 
 def case_corrector(pc: dict, case: str) -> str:
     """Case option ``corrector``: 'newton' (the default), a Jacobian at every corrector
-    evaluation, or 'chord', the corrector's later steps with the Jacobian of its first and f
-    alone (:mod:`spaceopt.indirect.continuation`), on the paths of the chain from the zero guess
+    evaluation, 'chord', the corrector's later steps with the Jacobian of its first and f
+    alone, or 'broyden', the Jacobian carried across steps by rank-one updates
+    (:mod:`spaceopt.indirect.continuation`), on the paths of the chain from the zero guess
     (:func:`.perturbed.chain_options`). The warm starts keep Newton's: their steps converge in one
     or two corrector evaluations, so the chord saves little, and on the exact map at E8 500 rev the 4×4
     blend with it stalled at τ 0.6 (the accepted point's update, with the predictor's Jacobian,
