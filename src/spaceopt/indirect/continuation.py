@@ -82,12 +82,15 @@ Broyden's rank-one update B ← B + (ΔF − B Δu) Δuᵀ/|Δu|² after every e
 first from the last accepted point to the predicted one; arclength: B = [∂f/∂z, ∂f/∂τ + b], τ
 follower: ∂f/∂z alone, both points at one τ), the predictor's tangent from it; a fresh Jacobian
 only where a step reduces |F| without halving it (at its end, as the chord) or not at all (the
-step retaken from its start with J there, once). Measured on E8 LP → OT (arclength, ε₁, path
-rtol 1e-7, side by side after the chord): at 500 revolutions 25 Jacobians and 376 residuals
-against 81 and 213, 85 steps against 63, 110.2 s against 236.9 s (2.15×), the same extremal (m_p
-to 4e-11 relative); at 200, 25 Jacobians against 52 and the same wall time (34.0 s against
-30.0–35.3 s): a Jacobian there costs about 4.5 residuals, at 500 about 20
-(docs/perturbed-e6-e7-e8.md, "fifty-fifth session"). ``polish_crossings`` > 0: the final polish of a map with edges,
+step retaken from its start with J there, once). A predicted point whose propagation fails
+then costs f alone up to the step cap, not f with its sensitivities. Measured on E8 LP → OT
+(arclength, ε₁, path rtol 1e-7, each count one process, Broyden's then the chord): Jacobians 19–25
+against 57–81, residuals about twice as many, 1.2–1.5× the steps, the same extremals (m_p to
+1e-11 relative); wall time 0.89× (250 rev), 1.56×, 1.29×, 1.17×, 2.98× (450) and 2.15× (500)
+faster. At 450 the chord's second Jacobian alone took 89 s: the first predicted point's
+propagation ran to the step cap (450 000 steps) with its sensitivities; a Jacobian costs 5.6–6.7
+residuals at the path's start at 250–500 (docs/perturbed-e6-e7-e8.md, "fifty-fifth session").
+``polish_crossings`` > 0: the final polish of a map with edges,
 where f jumps (the exact bang-bang map where a flat arc is born), steps across an edge that many
 times and then keeps to the side it reached (:meth:`Continuation._newton_polish`).
 """
