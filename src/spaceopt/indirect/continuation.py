@@ -85,11 +85,12 @@ only where a step reduces |F| without halving it (at its end, as the chord) or n
 step retaken from its start with J there, once). A predicted point whose propagation fails
 then costs f alone up to the step cap, not f with its sensitivities. Measured on E8 LP → OT
 (arclength, ε₁, path rtol 1e-7, each count one process, Broyden's then the chord): Jacobians 19–25
-against 57–81, residuals about twice as many, 1.2–1.5× the steps, the same extremals (m_p to
-1e-11 relative); wall time 0.89× (250 rev), 1.56×, 1.29×, 1.17×, 2.98× (450) and 2.15× (500)
-faster. At 450 the chord's second Jacobian alone took 89 s: the first predicted point's
-propagation ran to the step cap (450 000 steps) with its sensitivities; a Jacobian costs 5.6–6.7
-residuals at the path's start at 250–500 (docs/perturbed-e6-e7-e8.md, "fifty-fifth session").
+against 52–81, residuals about twice as many, 1.2–1.6× the steps, the same extremals (m_p to
+3e-11 relative); the chord's wall time over Broyden's ≈ 1 (200 rev), 0.89 (250), 1.56, 1.29,
+1.17, 2.98 (450) and 2.15 (500). At 450 the chord's second Jacobian alone took 89 s: the first
+predicted point's propagation ran to the step cap (450 000 steps) with its sensitivities; a
+Jacobian costs 5.6–6.7 residuals at the path's start at 250–500 (docs/perturbed-e6-e7-e8.md,
+"fifty-fifth session").
 ``polish_crossings`` > 0: the final polish of a map with edges,
 where f jumps (the exact bang-bang map where a flat arc is born), steps across an edge that many
 times and then keeps to the side it reached (:meth:`Continuation._newton_polish`).
@@ -383,9 +384,9 @@ class Continuation:
             def update(e, dzz, dF):                      # Broyden: J alone (both points at τ = tt)
                 return e[0], e[1] + np.outer(dF - e[1] @ dzz, dzz) / np.dot(dzz, dzz), e[2]
 
-            accepted, zt, Ft, ev, nF, iters = self._correct(zt, residual,
-                                                                  lambda zz, Fz, e: zz + _solve(e[1], -Fz, opt.step_rcond),
-                                                                  carried=(f, J, ftau), update=update)
+            accepted, zt, Ft, ev, nF, iters = self._correct(
+                zt, residual, lambda zz, Fz, e: zz + _solve(e[1], -Fz, opt.step_rcond),
+                carried=(f, J, ftau), update=update)
             if accepted:
                 ft, Jt, fttau = ev
                 prev_tangent = (dz, h)
