@@ -558,6 +558,23 @@ def test_sensitivity_rtol_needs_the_exact_map_and_reaches_the_shooting_problems(
         dataclasses.replace(tr, sensitivity_rtol=0.1)
 
 
+def test_path_step_budget_reaches_every_shooting_problem_and_is_checked():
+    """Case option path_step_budget (a factor >= 1; absent or null: off): it reaches the Transfer
+    and every Shooting of it; bad values are one-line errors naming the key."""
+    assert P.transfer_from_config(PC, "e9", "j2").path_step_budget is None
+    pc = copy.deepcopy(PC)
+    pc["cases"]["e9"]["path_step_budget"] = 4
+    tr = P.transfer_from_config(pc, "e9", "j2")
+    assert tr.path_step_budget == 4.0 and chain.shooting_for("ot", "eps", tr).path_step_budget == 4.0
+    assert chain.lp_shooting(tr, perturbed=True).path_step_budget == 4.0
+    for value in (0.5, "4", True, math.inf):
+        pc["cases"]["e9"]["path_step_budget"] = value
+        with pytest.raises(ConfigError, match=r"perturbed\.cases\.e9\.path_step_budget"):
+            P.transfer_from_config(pc, "e9", "j2")
+    with pytest.raises(ConfigError, match="path_step_budget"):
+        dataclasses.replace(tr, path_step_budget=0.5)
+
+
 def test_model_from_names_the_start_of_a_warm_start_and_is_checked():
     """Case option model_from ({model: an earlier model}): that model's solve starts from the one
     named, the others from the previous model, the first from the zero guess; the route to a model

@@ -55,6 +55,9 @@ class Shooting:
     # Jacobian to ‖J⁻¹ δJ‖ ≪ 1, not to the residual's accuracy; None = the residual's tolerance.
     # The smoothed map integrates f and Φ in one solve and ignores it (.exact_switching.shoot)
     sensitivity_rtol: float | None = dc_field(default=None, compare=False)
+    # a path's propagations capped at this factor times the steps of the path's last successful
+    # Jacobian evaluation (chain.PathStepBudget); None = the step cap max_steps alone
+    path_step_budget: float | None = dc_field(default=None, compare=False)
 
     def __post_init__(self):
         if self.switching not in SWITCHINGS:

@@ -86,12 +86,13 @@ class Transfer:
     path_rtol: float = PATH_RTOL           # integration rtol along homotopy paths (Shooting.path_rtol)
     path_arcs: int = 1                     # shooting arcs along homotopy paths (Shooting.path_arcs)
     sensitivity_rtol: float | None = None  # the exact map's Jacobian rtol (Shooting.sensitivity_rtol)
+    path_step_budget: float | None = None  # a path's step cap relative to its last success (Shooting)
 
     def integration(self) -> dict:
         """The integration settings every Shooting of this transfer takes (step cap, path rtol,
-        path arcs, sensitivity rtol)."""
+        path arcs, sensitivity rtol, path step budget)."""
         return {"max_steps": self.max_steps, "path_rtol": self.path_rtol, "path_arcs": self.path_arcs,
-                "sensitivity_rtol": self.sensitivity_rtol}
+                "sensitivity_rtol": self.sensitivity_rtol, "path_step_budget": self.path_step_budget}
 
     def __post_init__(self):
         self.initial.check("initial")
@@ -107,6 +108,11 @@ class Transfer:
         if not (isinstance(self.max_steps, int) and not isinstance(self.max_steps, bool)
                 and 1 <= self.max_steps <= STEP_BOUND):
             raise ConfigError("max_steps", self.max_steps, f"must be a whole number of steps in [1, {STEP_BOUND}]")
+        if self.path_step_budget is not None and not (
+                isinstance(self.path_step_budget, (int, float)) and not isinstance(self.path_step_budget, bool)
+                and 1 <= self.path_step_budget < math.inf):
+            raise ConfigError("path_step_budget", self.path_step_budget,
+                              "must be a factor >= 1 on the steps of the path's last successful evaluation")
         if not (isinstance(self.path_arcs, int) and not isinstance(self.path_arcs, bool) and self.path_arcs >= 1):
             raise ConfigError("path_arcs", self.path_arcs, "must be a whole number of shooting arcs >= 1")
         if not math.isnan(self.thrust) and not (math.isfinite(self.thrust) and self.thrust > 0):

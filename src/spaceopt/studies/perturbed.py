@@ -62,7 +62,8 @@ CASE_KEYS = ("initial", "final", "L0_deg", "n_rev", "m0_kg", "isp_s", "thrust_N"
              "ephemeris", "models")
 OPTIONAL_CASE_KEYS = ("lp_perturbed", "homotopy_path", "blend_ref", "route", "model_start", "fallback",
                       "perturb_at_eps", "model_step_at_eps", "path_rtol", "path_arcs", "warm_step_growth",
-                      "model_step", "tof_maximum", "switching", "corrector", "sensitivity_rtol", "model_from")
+                      "model_step", "tof_maximum", "switching", "corrector", "sensitivity_rtol", "model_from",
+                      "path_step_budget")
 
 
 def orbit_from_config(cfg, path, radius_m) -> Orbit:
@@ -138,7 +139,20 @@ def transfer_from_config(pc: dict, case: str, model: str, *, ephemeris: str | No
         max_steps=step_cap(revs, num["max_steps_per_rev"], num["min_max_steps"]) if "max_steps_per_rev" in num
         else MAX_STEPS,
         path_rtol=case_path_rtol(cc, model, path), path_arcs=case_path_arcs(cc, model, path),
-        sensitivity_rtol=case_sensitivity_rtol(pc, case, model))
+        sensitivity_rtol=case_sensitivity_rtol(pc, case, model), path_step_budget=path_step_budget(cc, path))
+
+
+def path_step_budget(cc: dict, path: str) -> float | None:
+    """Case option ``path_step_budget`` (a factor >= 1; absent or null: off): each path's
+    propagations capped at that multiple of the steps of the path's last successful Jacobian
+    evaluation (:class:`spaceopt.indirect.chain.PathStepBudget`)."""
+    value = cc.get("path_step_budget")
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 1 <= value < math.inf:
+        raise ConfigError(f"{path}.path_step_budget", value,
+                          "expected a factor >= 1 on the steps of the path's last successful evaluation")
+    return float(value)
 
 
 # ---------------------------------------------------------------- solves
