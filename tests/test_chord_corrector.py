@@ -31,6 +31,22 @@ class Counted:
         return self.f(z, tau), True
 
 
+def _cubic(jac_at: list):
+    """The corrector's callbacks for f = z + z³: (residual(x, held), newton_step(x, F, ev));
+    ``residual`` without ``held`` evaluates J and records where in ``jac_at``."""
+    def residual(x, held=None):
+        F = np.atleast_1d(x + x ** 3)
+        if held is not None:
+            return F, held
+        jac_at.append(float(x[0]))
+        return F, (np.array([[1 + 3 * x[0] ** 2]]),)
+
+    def newton_step(x, F, ev):
+        return x - np.linalg.solve(ev[0], F)
+
+    return residual, newton_step
+
+
 @pytest.mark.parametrize("follower, options", [(Continuation, ContinuationOptions),
                                                (ArclengthContinuation, ArclengthOptions)])
 def test_chord_and_broyden_correctors_follow_the_newton_path_with_fewer_jacobians(follower, options):
@@ -55,16 +71,7 @@ def test_broyden_retakes_a_step_that_its_carried_jacobian_spoils():
     z = 3 (|F| 2 → 30); the corrector retakes it with J evaluated at z = 1 (4), once, then goes
     on by Broyden steps (f alone, rank-one updates) to the root."""
     jac_at = []
-
-    def residual(x, held=None):
-        F = np.atleast_1d(x + x ** 3)
-        if held is not None:
-            return F, held
-        jac_at.append(float(x[0]))
-        return F, (np.array([[1 + 3 * x[0] ** 2]]),)
-
-    def newton_step(x, F, ev):
-        return x - np.linalg.solve(ev[0], F)
+    residual, newton_step = _cubic(jac_at)
 
     def update(ev, dx, dF):
         return (ev[0] + np.outer(dF - ev[0] @ dx, dx) / np.dot(dx, dx),)
@@ -84,16 +91,7 @@ def test_a_slow_chord_step_takes_a_fresh_jacobian_and_goes_on_by_newton():
     then 0.344 (|F| 0.385, not halved): the corrector evaluates J at 0.344 and goes on with chord
     steps from it (each now at least halving |F|) instead of rejecting the step."""
     jac_at = []
-
-    def residual(x, held=None):
-        F = np.atleast_1d(x + x ** 3)
-        if held is not None:
-            return F, held
-        jac_at.append(float(x[0]))
-        return F, (np.array([[1 + 3 * x[0] ** 2]]),)
-
-    def newton_step(x, F, ev):
-        return x - np.linalg.solve(ev[0], F)
+    residual, newton_step = _cubic(jac_at)
 
     cont = Continuation(lambda z, t: None, ContinuationOptions(verbose=False, corrector="chord", tol_step=1e-4,
                                                                max_chord=10),
