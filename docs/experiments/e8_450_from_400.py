@@ -10,7 +10,8 @@ extremal, carried to 450, give a shorter transfer?
 Route, all on the smoothed map at ε₁ = eps_blend (single shooting), with the exact profile's
 chain settings (``config/e8_exact.yaml`` + ``benchmarks/e8_exact_no_survey.yaml``):
 
-1. unperturbed chain at 400 (LP → OT to ε₁, chord corrector, path rtol 1e-7);
+1. unperturbed chain at 400 (LP → OT to ε₁, the profile's corrector: the chord when this was
+   run, Broyden's since the fifty-fifth session; path rtol 1e-7);
 2. J2 switched on, then the full model from J2 (``perturbed.warm_start``, the case's model steps);
 3. the **fixed-time** problem moved from (L_f, t_f) at 400 to L_f at 450 and t_f + ``--shift-days``
    (default: unperturbed 450 − 400, 288.2166 − 257.9145 d), the 'param' homotopy in arclength

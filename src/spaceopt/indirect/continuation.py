@@ -463,7 +463,7 @@ class Continuation:
         fresh Jacobian there, once.
         """
         opt = self.opt
-        chord = opt.corrector in ("chord", "broyden")
+        chord = opt.corrector != "newton"           # the chord's and Broyden's: steps on a held J
         broyden = opt.corrector == "broyden"
         limit = opt.max_chord if chord else opt.max_corrector
         prev = F = ev = nF = x_prev = d = held = None

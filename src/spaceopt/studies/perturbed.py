@@ -146,13 +146,13 @@ def path_step_budget(cc: dict, path: str) -> float | None:
     """Case option ``path_step_budget`` (a factor >= 1; absent or null: off): each path's
     propagations capped at that multiple of the steps of the path's last successful Jacobian
     evaluation (:class:`spaceopt.indirect.chain.PathStepBudget`)."""
-    value = cc.get("path_step_budget")
-    if value is None:
+    if cc.get("path_step_budget") is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not 1 <= value < math.inf:
+    value = number(cc, "path_step_budget", path)
+    if value < 1:
         raise ConfigError(f"{path}.path_step_budget", value,
                           "expected a factor >= 1 on the steps of the path's last successful evaluation")
-    return float(value)
+    return value
 
 
 # ---------------------------------------------------------------- solves
