@@ -18,6 +18,11 @@ K_f, whether the engine is on at K = 0 and the number of burn arcs:
                             p_ey, p_ix, p_iy, p_LK, p_m), K_f printed: the residual on a grid of
                             the two unknown scales (c: cost unit, d: length-unit ratio), then the
                             Newton homotopy from the BEST grid points
+  printed_fit MODEL C D [E]  the printed costates of MODEL's column (unperturbed or g44_moon_sun)
+                            at the units that fit our problem best: least squares over the scales
+                            (c, d and, perturbed, e for p_t) from (C, D, E), then Levenberg-Marquardt
+                            in all unknowns at ε_f from there; prints both residuals and the landing
+                            point (fifty-sixth session)
   thrust T …                chain at thrust T, then continued in the thrust to 0.5 N
   smoothing EPS …           ours continued upwards in ε (is the published one a smoothed solution?)
   neighbour DATE …          perturbed (4×4 + Moon + Sun): the E6 scan's extremal of DATE
@@ -123,18 +128,32 @@ def variant(*names):
             print(f"{name}: no convergence ({exc})", flush=True)
 
 
-def printed(best):
+def printed_column(model, sh):
+    """The printed costates and K_f of Table 4.2.1.2's column for ``model``, in the order of
+    ``sh``'s unknowns."""
     pub = yaml.safe_load(open("config/published/yun2023_perturbed.yaml"))
-    costates = pub["printed_costates"]["e5_unperturbed"]
-    assert costates["order"] == [n for n in SH.unknown_names() if n != "K_f"]
-    z_pub = np.array(costates["value"])
+    costates = pub["printed_costates"][f"e5_{model}"]
+    assert costates["order"] == [n for n in sh.unknown_names() if n != "K_f"]
     K_f = math.radians(next(r["value"] for r in pub["values"]
-                            if r["case"] == "e5_unperturbed" and r["quantity"] == "K_f_deg"))
+                            if r["case"] == f"e5_{model}" and r["quantity"] == "K_f_deg"))
+    return np.array(costates["value"]), K_f
+
+
+def scaled_start(sh, z_pub, K_f, c, d, e=None):
+    """z = c·(d·p_p, …, e·p_t, …, p_m), K_f: c the cost unit, d the length-unit ratio (p_p scales
+    with the length unit), e the time-unit ratio of p_t (perturbed column only)."""
+    z = c * z_pub
+    z[0] *= d
+    if e is not None:
+        z[sh.unknown_names().index("p_t")] *= e
+    return np.append(z, K_f)
+
+
+def printed(best):
+    z_pub, K_f = printed_column("unperturbed", SH)
 
     def start(c, d):
-        z = c * z_pub
-        z[0] *= d
-        return np.append(z, K_f)
+        return scaled_start(SH, z_pub, K_f, c, d)
     grid = [(c, d) for c in np.logspace(-1.5, 1.5, 41) for d in np.logspace(-1.5, 0.7, 45)]
     residual = jax.jit(jax.vmap(lambda z: S.residual(SH, z, 1.0, PRM, 1e-9, 1e-10)))
     f, ok = residual(jnp.asarray([start(c, d) for c, d in grid]))
@@ -143,6 +162,33 @@ def printed(best):
         c, d = grid[k]
         print(f"c={c:.4g} d={d:.4g}: |f_elements| = {size[k]:.3e}", flush=True)
         solve_from(start(c, d), f"c={c:.4g} d={d:.4g}")
+
+
+def printed_fit(model, *scales):
+    from scipy.optimize import least_squares
+    tr = P.transfer_from_config(PC, "e5", model, ephemeris=None if model == "unperturbed" else
+                                P.ephemeris_path("results", PC["cases"]["e5"]["ephemeris"]))
+    sh, prm = chain.shooting_for("ot", "eps", tr), tr.params(thrust=tr.thrust)
+    z_pub, K_f = printed_column(model, sh)
+    shot = {}
+
+    def evaluate(z):                                # f and J at z, one propagation per point
+        key = z.tobytes()
+        if key not in shot:
+            shot.clear()
+            shot[key] = S.shoot(sh, jnp.asarray(z), 1.0, prm)
+        f, J, _, _, ok = shot[key]
+        return (np.asarray(f), np.asarray(J)) if bool(ok) else (np.full(z.size, 1e3), None)
+
+    fit = least_squares(lambda q: evaluate(scaled_start(sh, z_pub, K_f, *np.exp(q)))[0],
+                        np.log(np.asarray(scales, float)), diff_step=1e-4, max_nfev=300)
+    print(f"{model}: scales (c, d[, e]) = {np.round(np.exp(fit.x), 6).tolist()}, length unit "
+          f"{tr.du / np.exp(fit.x[1]) / 1e3:.0f} km: |f| = {np.linalg.norm(fit.fun):.3e}", flush=True)
+    lm = least_squares(lambda z: evaluate(z)[0], scaled_start(sh, z_pub, K_f, *np.exp(fit.x)),
+                       jac=lambda z: evaluate(z)[1], method="lm", x_scale="jac",
+                       xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=400)
+    print(f"{model}: Levenberg-Marquardt from there: |f| = {np.linalg.norm(lm.fun):.3e}", flush=True)
+    report(chain.Solution("ot", sh, lm.x, prm, tr, {}, thrust_N=tr.thrust), f"{model}, printed at fitted units")
 
 
 def thrust(*thrust_N):
@@ -181,5 +227,5 @@ def neighbour(*dates):
 
 
 if __name__ == "__main__":
-    {"multistart": multistart, "foldjump": foldjump, "l0": l0, "variant": variant, "printed": printed,
+    {"multistart": multistart, "foldjump": foldjump, "l0": l0, "variant": variant, "printed": printed, "printed_fit": printed_fit,
      "thrust": thrust, "smoothing": smoothing, "neighbour": neighbour}[sys.argv[1]](*sys.argv[2:])
