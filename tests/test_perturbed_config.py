@@ -850,6 +850,8 @@ def test_e8_range_rows_say_which_counts_they_cover():
     assert "n_rev = 200 " in rows[("e8", "fuel_increase_max_kg")]["note"]
     # 150.0 d both: the transfer is not shortened, which the published statement says it is
     assert rows[("e8", "perturbation_shortens_time_below_500")]["status"] == "fail"
+    assert "p_t(K_f)" in rows[("e8", "perturbation_shortens_time_below_500")]["note"]    # the miss explained
+    assert rows[("e8", "perturbation_costs_fuel")]["note"].count("p_t(K_f)") == 0         # a pass gets none
     assert rows[("e8", "time_decrease_max_days")]["ours"] == 0.0
     assert rows[("e8_g44_moon_sun_n500", "propellant_kg")]["status"] == "missing"
     assert R.e8_range_notes(tabs, [200]) == {}
