@@ -227,5 +227,6 @@ def neighbour(*dates):
 
 
 if __name__ == "__main__":
-    {"multistart": multistart, "foldjump": foldjump, "l0": l0, "variant": variant, "printed": printed, "printed_fit": printed_fit,
-     "thrust": thrust, "smoothing": smoothing, "neighbour": neighbour}[sys.argv[1]](*sys.argv[2:])
+    {"multistart": multistart, "foldjump": foldjump, "l0": l0, "variant": variant, "printed": printed,
+     "printed_fit": printed_fit, "thrust": thrust, "smoothing": smoothing,
+     "neighbour": neighbour}[sys.argv[1]](*sys.argv[2:])

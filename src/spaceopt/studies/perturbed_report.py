@@ -320,8 +320,9 @@ E5P_OTHER = ("the zero-guess chain folds (T_min -> OT, tau 0.286); fallback warm
              "longer: a different extremal, beyond model choices (ERA, UT1=UTC, TDB, EGM96 GM/a_e, central mu)")
 E8_TIME_SIGN = ("at 450 rev every certified maximum of m_f is 2.3-2.8 d longer than the unperturbed transfer; the "
                 "free-time condition is flat there: along the fixed-time family through them |p_t(K_f)| <= 2.1e-6 "
-                "from 286.74 to 290.49 d (m_f within 49 g), below the thesis's residual level (Table 4.2.1.3: "
-                "1e-5-8.5e-5), so a solve at that level does not fix the sign of the time change at 450 "
+                "from 286.74 to 290.49 d (m_f within 49 g), below the thesis's residual level (its E5 Table 4.2.1.3: "
+                "relative errors 1e-5-8.5e-5), so a solve at that level does not fix the sign of the time change "
+                "at 450 "
                 "(docs/perturbed-e6-e7-e8.md, forty-fourth and fifty-sixth sessions)")
 MISS_NOTES = {
     ("e5_unperturbed", "m_f_kg"): E5U_OTHER,
