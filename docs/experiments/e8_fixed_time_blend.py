@@ -12,10 +12,12 @@ then climbs from there to a local maximum of m_f in t_f, certified by the sign c
 Usage (repository root, after the DAG has written results/perturbed/e8/j2_N.json and the
 ephemeris; the artifacts' own map, exact or smoothed, is kept):
 
-  python docs/experiments/e8_fixed_time_blend.py N TF_DAYS STEP_DAYS [PATH]
+  python docs/experiments/e8_fixed_time_blend.py N TF_DAYS STEP_DAYS [PATH [DOWNHILL_FOLDS]]
 
 N: the revolution count; TF_DAYS: the fixed time of flight; STEP_DAYS: the J2 family's step on
-the way there; PATH: the blend's path, 'tau' (default) or 'arclength'.
+the way there; PATH: the blend's path, 'tau' (default) or 'arclength'; DOWNHILL_FOLDS: folds with
+φ ≠ 0 the end game's walk may pass going downhill (``MaximumOptions.downhill_folds``, default 0),
+with up to 40 fixed-time solves.
 """
 from __future__ import annotations
 
@@ -48,7 +50,7 @@ def walk(fam, z0, tf_to, step):
     return trail[-1]
 
 
-def main(n_rev, tf_days, step_days, path="tau"):
+def main(n_rev, tf_days, step_days, path="tau", downhill_folds=0):
     pc = yaml.safe_load(open("config/studies/perturbed.yaml"))["perturbed"]
     j2 = multirev.load(f"results/perturbed/e8/j2_n{n_rev}.json")
     tu = j2.transfer.tu
@@ -64,7 +66,9 @@ def main(n_rev, tf_days, step_days, path="tau"):
     free = dataclasses.replace(full, shooting=j2.shooting)
     print(f"full model at fixed t_f {tf_days} d: z {np.round(full.z, 9).tolist()} "
           f"({time.perf_counter() - start:.0f} s)", flush=True)
-    best, record = maximise_final_mass(free, MaximumOptions(label="end game"))
+    options = MaximumOptions(label="end game", downhill_folds=int(downhill_folds), max_arc_step=8.0,
+                             max_points=40 if int(downhill_folds) else MaximumOptions.max_points)
+    best, record = maximise_final_mass(free, options)
     print(f"end game: {record['status']}, t_f {record.get('tof_days')} d, m_f {record.get('m_f_kg')} kg, "
           f"m_p {tr.m0 - record.get('m_f_kg', np.nan)} kg ({time.perf_counter() - start:.0f} s)", flush=True)
 
