@@ -66,8 +66,9 @@ def main(n_rev, tf_days, step_days, path="tau", downhill_folds=0):
     free = dataclasses.replace(full, shooting=j2.shooting)
     print(f"full model at fixed t_f {tf_days} d: z {np.round(full.z, 9).tolist()} "
           f"({time.perf_counter() - start:.0f} s)", flush=True)
-    options = MaximumOptions(label="end game", downhill_folds=int(downhill_folds), max_arc_step=8.0,
-                             max_points=40 if int(downhill_folds) else MaximumOptions.max_points)
+    downhill_folds = int(downhill_folds)
+    options = MaximumOptions(label="end game", downhill_folds=downhill_folds, max_arc_step=8.0,
+                             max_points=40 if downhill_folds else MaximumOptions.max_points)
     best, record = maximise_final_mass(free, options)
     print(f"end game: {record['status']}, t_f {record.get('tof_days')} d, m_f {record.get('m_f_kg')} kg, "
           f"m_p {tr.m0 - record.get('m_f_kg', np.nan)} kg ({time.perf_counter() - start:.0f} s)", flush=True)

@@ -322,8 +322,7 @@ E8_TIME_SIGN = ("at 450 rev every certified maximum of m_f is 2.3-2.8 d longer t
                 "free-time condition is flat there: along the fixed-time family through them |p_t(K_f)| <= 2.1e-6 "
                 "from 286.74 to 290.49 d (m_f within 49 g), below the thesis's residual level (its E5 Table 4.2.1.3: "
                 "relative errors 1e-5-8.5e-5), so a solve at that level does not fix the sign of the time change "
-                "at 450 "
-                "(docs/perturbed-e6-e7-e8.md, forty-fourth and fifty-sixth sessions)")
+                "at 450 (docs/perturbed-e6-e7-e8.md, forty-fourth and fifty-sixth sessions)")
 MISS_NOTES = {
     ("e5_unperturbed", "m_f_kg"): E5U_OTHER,
     ("e5_unperturbed", "tof_days"): E5U_OTHER,
