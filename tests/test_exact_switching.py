@@ -3,6 +3,7 @@ under J2: switches, Jacobian, τ column, Newton from the smoothed root, chain.to
 import dataclasses
 from pathlib import Path
 
+import diffrax
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -11,7 +12,7 @@ import yaml
 
 from spaceopt.errors import ConfigError
 from spaceopt.indirect import chain, exact_switching as X, hamiltonians as hm
-from spaceopt.indirect.flow import Model
+from spaceopt.indirect.flow import Model, StepMemory, primal_control
 from spaceopt.indirect.shooting import (Shooting, final_state, initial_state, residual, sensitivity_tolerances,
                                        shoot)
 from spaceopt.studies import multirev, multirev_config
@@ -70,17 +71,46 @@ def test_the_switches_are_the_sign_changes_of_the_smoothed_extremal(smoothed):
     np.testing.assert_allclose(Ks_loose[:int(n_sw)], Ks[:int(n_sw)], rtol=0, atol=1e-4)
 
 
-def test_the_switches_do_not_depend_on_how_the_arcs_are_cut_into_segments(unperturbed_exact):
+def test_the_switches_do_not_depend_on_how_the_arcs_are_cut_into_segments(unperturbed_exact, monkeypatch):
     """Pass 1 in segments of 3 steps finds the switches of its default segments (on the
-    unperturbed extremal: a program of its own for the segment length, compiled in seconds)."""
+    unperturbed extremal: a program of its own for the segment length, compiled in seconds), in
+    nearly the same steps: each segment goes on with the step carried from the one before (with
+    diffrax's initial-step rule at every segment instead, it takes many more)."""
     ex = unperturbed_exact
     sh, z = ex.shooting, jnp.asarray(ex.z)
     _, Ks, n_sw, status = X.switch_points(sh, z, 1.0, ex.prm, sh.rtol, sh.atol)
     assert X.STATUS[int(status)] == "done" and int(n_sw) >= 4
     y0 = initial_state(sh, z, ex.prm)
-    cut = X.switches(sh.model, y0, z[sh.kf_index], 1.0, ex.prm, sh.rtol, sh.atol, sh.max_steps, segment_steps=3)
+    whole, cut = (X.switches(sh.model, y0, z[sh.kf_index], 1.0, ex.prm, sh.rtol, sh.atol, sh.max_steps,
+                             segment_steps=k) for k in (X.SEGMENT_STEPS, 3))
     assert int(cut["n_switches"]) == int(n_sw)
     np.testing.assert_allclose(cut["Ks"], Ks, rtol=0, atol=1e-9)
+    assert int(cut["steps"]) <= 1.05 * int(whole["steps"])          # E1: 88 and 88
+    monkeypatch.setattr(X, "CARRY_STEPS", False)
+    ruled = X.switches(sh.model, y0, z[sh.kf_index], 1.0, ex.prm, sh.rtol, sh.atol, sh.max_steps, segment_steps=3)
+    assert int(ruled["n_switches"]) == int(n_sw)
+    assert int(ruled["steps"]) > 1.2 * int(cut["steps"])           # E1: 168
+
+
+def test_an_integration_cut_and_continued_with_the_carried_step_takes_the_steps_of_the_uncut_one():
+    """flow.StepMemory: a solve stopped after k steps and continued from the step it recorded
+    reaches the uncut solve's end in its number of steps and at its state (diffrax's default
+    controller adapts from the last error alone, so the continued solve takes the uncut one's
+    steps; the pass-1 test above shows what the initial-step rule costs instead)."""
+    term = diffrax.ODETerm(lambda t, y, a: jnp.stack([y[1], -y[0] / (1.0 + 0.5 * jnp.cos(t)) ** 3]))
+
+    def solve(t0, y0, dt0, max_steps):
+        return diffrax.diffeqsolve(term, diffrax.Dopri8(), t0, 20.0, dt0, y0,
+                                   stepsize_controller=StepMemory(primal_control(1e-10, 1e-12)),
+                                   saveat=diffrax.SaveAt(t1=True, controller_state=True), max_steps=max_steps,
+                                   throw=False)
+    y0 = jnp.array([1.0, 0.0])
+    whole = solve(0.0, y0, 1e-3, 4096)
+    cut = solve(0.0, y0, 1e-3, 20)
+    assert float(cut.ts[-1]) < 20.0
+    carried = solve(cut.ts[-1], cut.ys[-1], cut.controller_state[1], 4096)
+    assert int(cut.stats["num_steps"]) + int(carried.stats["num_steps"]) == int(whole.stats["num_steps"])
+    np.testing.assert_allclose(carried.ys[-1], whole.ys[-1], rtol=1e-12, atol=1e-14)
 
 
 def test_the_jacobian_is_the_derivative_of_the_exact_residual(smoothed):
