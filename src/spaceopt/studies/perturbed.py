@@ -53,7 +53,7 @@ from ..constants import DAY
 from . import multirev
 from .multirev_config import number, orbit_from_config as altitude_orbit
 from .perturbed_config import (case_corrector, case_model_step, case_path_arcs, case_path_rtol,
-                               case_sensitivity_rtol, perturb_at_eps)
+                               case_path_step_budget, case_sensitivity_rtol, perturb_at_eps)
 
 ALT_KEYS = ("perigee_alt_km", "apogee_alt_km")
 AE_KEYS = ("a_km", "e")
@@ -139,20 +139,7 @@ def transfer_from_config(pc: dict, case: str, model: str, *, ephemeris: str | No
         max_steps=step_cap(revs, num["max_steps_per_rev"], num["min_max_steps"]) if "max_steps_per_rev" in num
         else MAX_STEPS,
         path_rtol=case_path_rtol(cc, model, path), path_arcs=case_path_arcs(cc, model, path),
-        sensitivity_rtol=case_sensitivity_rtol(pc, case, model), path_step_budget=path_step_budget(cc, path))
-
-
-def path_step_budget(cc: dict, path: str) -> float | None:
-    """Case option ``path_step_budget`` (a factor >= 1; absent or null: off): each path's
-    propagations capped at that multiple of the steps of the path's last successful Jacobian
-    evaluation (:class:`spaceopt.indirect.chain.PathStepBudget`)."""
-    if cc.get("path_step_budget") is None:
-        return None
-    value = number(cc, "path_step_budget", path)
-    if value < 1:
-        raise ConfigError(f"{path}.path_step_budget", value,
-                          "expected a factor >= 1 on the steps of the path's last successful evaluation")
-    return value
+        sensitivity_rtol=case_sensitivity_rtol(pc, case, model), path_step_budget=case_path_step_budget(cc, path))
 
 
 # ---------------------------------------------------------------- solves

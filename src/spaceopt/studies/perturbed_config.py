@@ -77,6 +77,19 @@ def case_path_arcs(cc: dict, model: str, path: str) -> int:
     return _per_model(cc, "path_arcs", model, path, 1, read)
 
 
+def case_path_step_budget(cc: dict, path: str) -> float | None:
+    """Case option ``path_step_budget`` (a factor >= 1; absent or null: off): each path's
+    propagations capped at that multiple of the steps of the path's last successful Jacobian
+    evaluation (:class:`spaceopt.indirect.chain.PathStepBudget`)."""
+    if cc.get("path_step_budget") is None:
+        return None
+    value = number(cc, "path_step_budget", path)
+    if value < 1:
+        raise ConfigError(f"{path}.path_step_budget", value,
+                          "expected a factor >= 1 on the steps of the path's last successful evaluation")
+    return value
+
+
 def perturb_at_eps(pc: dict, case: str, key: str = "perturb_at_eps") -> float | None:
     """Case option ``perturb_at_eps`` (or ``model_step_at_eps``): the smoothing ε at which the
     perturbations are switched on (:func:`.perturbed.perturb_from_unperturbed`), or a perturbed
