@@ -109,7 +109,8 @@ def stage(n_rev, order):
         for name in order:
             X._pass1, X._pass2_block = variants[name]
             t0 = time.perf_counter()
-            sol = P.warm_start(start, tr, f"stage/{name}", **P.warm_start_kwargs(pc, "e8", "g44_moon_sun", n_rev=n_rev))
+            kwargs = P.warm_start_kwargs(pc, "e8", "g44_moon_sun", n_rev=n_rev)
+            sol = P.warm_start(start, tr, f"stage/{name}", **kwargs)
             sol.transfer = tr
             print(f"{name}: {time.perf_counter() - t0:.1f} s, {B._jacobians(sol.stats)} Jacobians, "
                   f"{B._propellant_and_time(sol)}", flush=True)

@@ -37,17 +37,17 @@ force-model blend 'model', the perturbation switch 'pert', a parameter path 'par
    500 full-model blend ‖J⁻¹ δJ‖ is 0.23 at 1e-9 against 1e-11, and the Jacobian 1.41× cheaper.
 
 Both passes run inside one compiled ``lax.while_loop`` each; each piece of a pass (arc, segment,
-restep to a switch) starts from the step carried from the piece before (``CARRY_STEPS``). Written by hand because diffrax
-integrates one smooth field per solve: the arc loop, the bracketing and the saltation are the
-standard treatment of a field discontinuous across a switching surface. A switch where S is
-tangent to zero (∂S/∂K + ∇_y S · g⁻ → 0: an arc being born or dying) makes dK_s/dz unbounded:
-the map is continuous there but not differentiable (an arc's width grows as the square root of
-its S extremum), nothing here detects that, and the success flag stays true. Paths through such
-places may crawl: that is what the smoothing is for, and the caller's choice (case option
-``switching``). (The E8 500 4×4 → full blend's crawl near τ 0.17, first read as such a place, is
-not one: the switch count stays fixed there while Newton diverges, cond(∂f/∂z) 1.5e7; the
-case's truncated-SVD steps take it through; docs/perturbed-e6-e7-e8.md, "thirty-eighth
-session".)
+restep to a switch) starts from the step carried from the piece before (``CARRY_STEPS``).
+Written by hand because diffrax integrates one smooth field per solve: the arc loop, the
+bracketing and the saltation are the standard treatment of a field discontinuous across a
+switching surface. A switch where S is tangent to zero (∂S/∂K + ∇_y S · g⁻ → 0: an arc being
+born or dying) makes dK_s/dz unbounded: the map is continuous there but not differentiable (an
+arc's width grows as the square root of its S extremum), nothing here detects that, and the
+success flag stays true. Paths through such places may crawl: that is what the smoothing is for,
+and the caller's choice (case option ``switching``). (The E8 500 4×4 → full blend's crawl near τ
+0.17, first read as such a place, is not one: the switch count stays fixed there while Newton
+diverges, cond(∂f/∂z) 1.5e7; the case's truncated-SVD steps take it through;
+docs/perturbed-e6-e7-e8.md, "thirty-eighth session".)
 The spike and its measurements: docs/experiments/e8_exact_switching.py.
 """
 from __future__ import annotations
@@ -128,8 +128,8 @@ def _segment(model, K, Kf, y, delta, noise, tau, prm, rtol, atol, segment_steps,
     return diffrax.diffeqsolve(
         diffrax.ODETerm(_arc_rhs(model)), diffrax.Dopri8(), t0=K, t1=Kf, dt0=_first_step(dt), y0=y,
         args=(tau, prm, delta, noise), stepsize_controller=StepMemory(primal_control(rtol, atol)),
-        saveat=diffrax.SaveAt(t1=True, dense=True, controller_state=True), max_steps=segment_steps, throw=False,
-        event=diffrax.Event(wrong_side))
+        saveat=diffrax.SaveAt(t1=True, dense=True, controller_state=True), max_steps=segment_steps,
+        throw=False, event=diffrax.Event(wrong_side))
 
 
 def _side(model, sol, delta, tau, prm):
@@ -305,7 +305,8 @@ def propagate_with_sensitivities(model, y0, Phi0, Kf, tau, prm, rtol, atol, max_
         return (i + 1, K1, y, Phi, jnp.where(last, delta, 1.0 - delta), steps + sol.stats["num_steps"],
                 ok & (sol.result == diffrax.RESULTS.successful), dt)
 
-    init = (jnp.asarray(0), jnp.asarray(0.0), y0, Phi0, d0, jnp.asarray(0), jnp.asarray(True), jnp.asarray(FIRST_STEP))
+    init = (jnp.asarray(0), jnp.asarray(0.0), y0, Phi0, d0, jnp.asarray(0), jnp.asarray(True),
+            jnp.asarray(FIRST_STEP))
     _, _, yf, Phif, d_last, steps, ok, _ = jax.lax.while_loop(
         lambda c: (c[0] <= n_switches) & c[6], arc, init)
     return yf, Phif, d_last, steps, ok
