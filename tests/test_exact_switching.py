@@ -108,7 +108,7 @@ def test_an_integration_cut_and_continued_with_the_carried_step_takes_the_steps_
     whole = solve(0.0, y0, 1e-3, 4096)
     cut = solve(0.0, y0, 1e-3, 20)
     assert float(cut.ts[-1]) < 20.0
-    carried = solve(cut.ts[-1], cut.ys[-1], cut.controller_state[1], 4096)
+    carried = solve(cut.ts[-1], cut.ys[-1], StepMemory.proposals(cut.controller_state)[0], 4096)
     assert int(cut.stats["num_steps"]) + int(carried.stats["num_steps"]) == int(whole.stats["num_steps"])
     np.testing.assert_allclose(carried.ys[-1], whole.ys[-1], rtol=1e-12, atol=1e-14)
 

@@ -237,7 +237,7 @@ def switches(model, y0, Kf, tau, prm, rtol, atol, max_steps, segment_steps=SEGME
         K, y, delta, noise, Ks, n_sw, steps, status, dt = c
         sol = _segment(model, K, Kf, y, delta, noise, tau, prm, rtol, atol, segment_steps, dt)
         Kend, yend = sol.ts[-1], sol.ys[-1]
-        dt = sol.controller_state[1]         # the next step past a segment's end or a switch in its last step
+        dt = StepMemory.proposals(sol.controller_state)[0]    # the next step past a segment's end or a switch
         steps = steps + sol.stats["num_steps"]
         crossed, Ka, Kb = _crossing(model, sol, K, Kend, delta, tau, prm)
 
@@ -288,7 +288,7 @@ def propagate_with_sensitivities(model, y0, Phi0, Kf, tau, prm, rtol, atol, max_
         return field_with_tangents(lambda yy, tt: field(model, K, yy, tt, a[1], delta=a[2]), Y[0], a[0], Y[1],
                                    tau_tangent)
 
-    controller = capped(StepMemory(primal_control(rtol, atol)), max_steps)
+    controller = StepMemory(capped(primal_control(rtol, atol), max_steps))
 
     def arc(c):
         i, K, y, Phi, delta, steps, ok, dt = c
@@ -301,7 +301,7 @@ def propagate_with_sensitivities(model, y0, Phi0, Kf, tau, prm, rtol, atol, max_
         last = i >= n_switches
         Phi = jax.lax.cond(last, lambda: Phi, lambda: _saltation(model, K1, y, Phi, delta, tau, prm, tau_tangent))
         # the step proposed before the arc's last one, which was cut short at the switch
-        dt = sol.controller_state[0][2]
+        dt = StepMemory.proposals(sol.controller_state)[1]
         return (i + 1, K1, y, Phi, jnp.where(last, delta, 1.0 - delta), steps + sol.stats["num_steps"],
                 ok & (sol.result == diffrax.RESULTS.successful), dt)
 

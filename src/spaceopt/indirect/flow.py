@@ -327,6 +327,11 @@ class StepMemory(_Wrapper):
             t0, t1, y0, y1_candidate, args, y_error, error_order, state)
         return keep, t_prev, t_next, jump, (state, t_next - t_prev, last), result
 
+    @staticmethod
+    def proposals(controller_state):
+        """(the last proposal, the one before) from a solve's saved state of this controller."""
+        return controller_state[1], controller_state[2]
+
 
 def capped(controller, max_steps):
     """``controller`` with the step cap ``max_steps`` (traced; at most STEP_BOUND)."""
