@@ -106,9 +106,9 @@ def test_paper_command_of_the_full_profile_passes_its_empty_profile_note():
 
 
 def test_a_date_listed_in_skip_dates_by_an_overlay_config_is_left_out_of_the_plan(tmp_path):
-    """The remedy the README gives for an E6 date that does not converge: name it in
-    ``perturbed.e6.skip_dates`` of a file passed with --configfile. Snakemake merges that nested
-    key into the study config (the rest of ``perturbed.e6`` stays), and the tables no longer
+    """The remedy docs/perturbed-guide.md §5 gives for an E6 date that does not converge: name
+    it in ``perturbed.e6.skip_dates`` of a file passed with --configfile. Snakemake merges that
+    nested key into the study config (the rest of ``perturbed.e6`` stays), and the tables no longer
     wait for the date."""
     overlay = tmp_path / "skip.yaml"
     overlay.write_text('perturbed:\n  e6:\n    skip_dates: ["2021-05-20"]\n')
