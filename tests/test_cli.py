@@ -4,6 +4,7 @@ import tempfile
 from pathlib import Path
 
 import pytest
+import yaml
 
 from spaceopt import cli
 from spaceopt.errors import ConvergenceError
@@ -65,7 +66,12 @@ def test_perturbations_are_switched_on_after_the_unperturbed_chain(tmp_path, cap
     window = json.loads((tmp_path / "ephemeris.json").read_text())["coverage"]
     t_end = (window["end_jd_tdb"] - window["start_jd_tdb"]) - 3       # days after the epoch, at least
     assert t_end > pert["scalars"]["tof_days"]
-    assert "perturbed:" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "perturbed: a certified local maximum of m_f in t_f" in out
+    # the free-time end game of the workflow's solves: the point is a certified maximum in t_f
+    end_game = pert["extra"]["tof_maximum"]
+    assert end_game["certified"] and end_game["probe_days"] == pytest.approx(2e-4 * unp["scalars"]["tof_days"])
+    assert end_game["tof_days"] == pytest.approx(pert["scalars"]["tof_days"], abs=1e-6)
     # the independent Cartesian re-propagation closes on the target with the perturbations,
     # and misses it by far without them (so the check sees the force model)
     from spaceopt.studies import verify
@@ -146,3 +152,26 @@ def test_perturbations_can_make_a_transfer_exist_that_does_not_without_them(tmp_
     pert = json.loads((tmp_path / "ot_perturbed.json").read_text())
     assert pert["solver"]["final_residual"] < 1e-8 and pert["extra"]["perturbations"]["geopotential"] == "j2"
     assert 0 < 1000 - pert["scalars"]["m_f_kg"] < 1.0 and pert["scalars"]["burn_fraction"] < 0.2
+
+
+def test_the_exact_bang_bang_map_from_the_command_line(tmp_path, capsys):
+    """--switching exact: E1's OT on the exact bang-bang map, the ε → 0 limit of the smoothing
+    (δ ∈ {0, 1} everywhere), so it keeps a little more mass than the thesis's ε = 1e-5 solution,
+    within that value's tolerance; J2 is switched on on the same map and the end game certifies
+    the perturbed point. A bad value of the option is a one-line error naming it."""
+    import numpy as np
+    rc = cli.main(E1 + ["--thrust-n", "15", "--switching", "exact", "--geopotential", "j2",
+                        "--epoch-utc", "2021-05-09T12:00:00", "--out", str(tmp_path)])
+    assert rc == 0, capsys.readouterr().err
+    ot = json.loads((tmp_path / "ot.json").read_text())
+    pert = json.loads((tmp_path / "ot_perturbed.json").read_text())
+    assert ot["model"]["switching"] == pert["model"]["switching"] == "exact"
+    for name in ("ot", "ot_perturbed"):
+        assert set(np.unique(np.load(tmp_path / f"{name}.npz")["delta"])) == {0.0, 1.0}
+    published = yaml.safe_load((Path(__file__).parents[1] / "config/published/yun2023_multirev.yaml").read_text())
+    ref = next(v for v in published["values"] if v["case"] == "e1_ot_15N" and v["quantity"] == "m_f_kg")
+    assert 0 < ot["scalars"]["m_f_kg"] - ref["value"] < ref["tol"]["rel"] * ref["value"]
+    assert pert["extra"]["tof_maximum"]["certified"] and pert["solver"]["final_residual"] < 1e-8
+    assert "perturbed: a certified local maximum" in capsys.readouterr().out
+    assert cli.main(E1 + ["--thrust-n", "15", "--switching", "bang"]) == 1
+    assert capsys.readouterr().err.strip() == "error: switching='bang': expected one of smoothed, exact"

@@ -15,7 +15,15 @@ perturbations switched on by τ and the path followed in arclength
 (:func:`spaceopt.studies.perturbed.perturb_from_unperturbed`, the route of the §4.2 studies), or,
 where only the perturbed transfer exists (J2 can make a plane change possible), by the chain from
 the zero guess with the perturbations on (``--lp-perturbed``: in its LP too, as E9);
-a DE405 window for the Moon and the Sun is cut for the transfer (``ephemeris.json``).
+a DE405 window for the Moon and the Sun is cut for the transfer (``ephemeris.json``). The
+perturbed solution then goes through the free-time end game of the workflow's solves: the local
+maximum of the final mass in the time of flight next to it, certified (``--tof-probe-days``;
+:func:`maximise_in_tof`, record ``tof_maximum`` in ``ot_perturbed.json``).
+
+``--switching exact`` solves the minimum-fuel problem on the exact bang-bang map (δ = 1[S > 0],
+the switches located on the trajectory, :mod:`spaceopt.indirect.exact_switching`): the chain stops
+its descent in ε at ε₁ = 10⁻² and Newton jumps to the ε → 0 limit; the perturbations are then
+switched on on that map.
 
 Orbit elements carry their units in the key names. Exit status: 0 when the chain finished
 (including the verdict "no transfer exists"), 1 for bad input (one line naming the key and the
@@ -32,6 +40,8 @@ import time
 from pathlib import Path
 
 SCALARS = ("tof_days", "m_f_kg", "burn_days", "dv_m_s", "K_f_deg")
+PROBE_DAYS = 0.05                   # the end game's probe, perturbed.numerics.tof_maximum of the workflow
+PROBE_TOF_FRACTION = 2e-4           # ... at most this fraction of the time of flight (E9: 0.001 d over 5 d)
 ORBIT_KEYS = {"a_km": 1e3, "e": 1.0, "i_deg": 1.0, "raan_deg": 1.0, "argp_deg": 1.0}
 
 
@@ -70,7 +80,8 @@ def parse_orbit(text: str, key: str):
     return orbit
 
 
-def _positive(name):
+def _positive(name, zero: bool = False):
+    """A converter of the option ``name`` to a positive float (``zero``: or 0)."""
     from .errors import ConfigError
 
     def conv(text):
@@ -78,8 +89,8 @@ def _positive(name):
             v = float(text)
         except ValueError:
             raise ConfigError(name, text, "not a number") from None
-        if not (math.isfinite(v) and v > 0):
-            raise ConfigError(name, text, "must be a positive number")
+        if not (math.isfinite(v) and (v > 0 or zero and v == 0)):
+            raise ConfigError(name, text, "must be a positive number" + (" or 0" if zero else ""))
         return v
     return conv
 
@@ -106,6 +117,12 @@ def build_parser():
     s.add_argument("--lp-perturbed", action="store_true",
                    help="solve the perturbed chains' LP with the perturbations on (as E9 does: J2's node "
                         "precession makes the plane change)")
+    s.add_argument("--switching", default="smoothed",
+                   help="smoothed | exact: the minimum-fuel problem smoothed at --eps-final, or its "
+                        "bang-bang limit with the switches located on the trajectory")
+    s.add_argument("--tof-probe-days",
+                   help="the free-time end game's probe of a perturbed solution, in days (default: 0.05, "
+                        "at most 2e-4 of the time of flight); 0 turns the end game off")
     s.add_argument("--out", default="results/user")
     s.add_argument("--quiet", action="store_true")
     return p
@@ -115,7 +132,7 @@ def solve(args) -> int:
     from .errors import ConfigError, ConvergenceError
     from .indirect import chain
     from .indirect.continuation import ContinuationOptions
-    from .indirect.transfer import Transfer
+    from .indirect.transfer import SWITCHINGS, Transfer
     from .studies import existence, multirev, perturbed
     from . import artifacts
 
@@ -128,6 +145,10 @@ def solve(args) -> int:
                   _positive("isp_s")(args.isp_s), _positive("thrust_n")(args.thrust_n),
                   mu=_positive("mu_km3_s2")(args.mu_km3_s2) * 1e9, eps_final=_positive("eps_final")(args.eps_final))
     perturbations = parse_perturbations(args)
+    switching = args.switching.strip().lower()
+    if switching not in SWITCHINGS:
+        raise ConfigError("switching", args.switching, f"expected one of {', '.join(SWITCHINGS)}")
+    probe = None if args.tof_probe_days is None else _positive("tof_probe_days", zero=True)(args.tof_probe_days)
     epoch = args.epoch_utc
     out = Path(args.out)
     cfg = {"cli": vars(args)}
@@ -150,29 +171,61 @@ def solve(args) -> int:
                                        ephemeris=_ephemeris_window(perturbations, epoch, tm_tof_days, out, cfg))
             tm_p, verdicts["verdict_perturbed"] = existence.solve(tr_p, "perturbed", lp_perturbed=args.lp_perturbed,
                                                                   options=opts)
-            perturbed.save(tm_p, out / "tmin_perturbed.json", cfg, time.perf_counter() - t0, tm_p.extra)
+            tof_days = perturbed.save(tm_p, out / "tmin_perturbed.json", cfg, time.perf_counter() - t0,
+                                      tm_p.extra)["scalars"]["tof_days"]
             print("perturbed: " + verdicts["verdict_perturbed"]["message"])
         artifacts.write_json(out / "verdict.json", {**verdicts, "provenance": artifacts.provenance(cfg)})
         perturbed_exists = bool(perturbations) and verdicts["verdict_perturbed"]["exists"]
         if not verdict["exists"] and not perturbed_exists:
             return 0
         if verdict["exists"]:
-            ot = chain.solve_ot(lp, tr.thrust, opts)
+            ot = chain.solve_ot(lp, tr.thrust, opts, switching=switching)
             sc = multirev.save(ot, out / "ot.json", cfg, time.perf_counter() - t0)["scalars"]
+            tof_days = sc["tof_days"]
             print(json.dumps({k: sc[k] for k in SCALARS}, indent=1))
         if perturbed_exists:
             # from the unperturbed extremal where there is one, else by the chain from the zero
             # guess with the perturbations on (the route of the §4.2 E9 solves)
             pert = (perturbed.perturb_from_unperturbed(ot, tr_p, "perturbed", options=opts) if verdict["exists"]
-                    else perturbed.solve_for(tr_p, "perturbed", lp_perturbed=args.lp_perturbed, options=opts)[1])
-            sc = perturbed.save(pert, out / "ot_perturbed.json", cfg, time.perf_counter() - t0)["scalars"]
-            print("perturbed:")
+                    else perturbed.solve_for(tr_p, "perturbed", lp_perturbed=args.lp_perturbed, options=opts,
+                                             switching=switching)[1])
+            pert, end_game = maximise_in_tof(pert, probe, tof_days, quiet=args.quiet)
+            extra = {} if end_game is None else {"tof_maximum": end_game}
+            sc = perturbed.save(pert, out / "ot_perturbed.json", cfg, time.perf_counter() - t0, extra)["scalars"]
+            print("perturbed:" + ("" if end_game is None else " " + end_game_verdict(end_game)))
             print(json.dumps({k: sc[k] for k in SCALARS}, indent=1))
     except ConvergenceError as exc:
         artifacts.write_failure(out / "failure.json", exc, cfg)
         print(f"error: {exc} (diagnosis in {out / 'failure.json'})", file=sys.stderr)
         return 2
     return 0
+
+
+def maximise_in_tof(sol, probe_days: float | None, tof_days: float, quiet: bool = False):
+    """The free-time end game of the perturbed solution ``sol``, as every perturbed solve of the
+    workflow ends (:func:`spaceopt.indirect.free_time.maximise_final_mass`): the local maximum of
+    m_f in t_f next to it, certified by a sign change of p_t(K_f) between fixed-time extremals.
+    ``probe_days``: its probes' distance from t_f; None: the workflow's 0.05 d, at most
+    2·10⁻⁴ of ``tof_days`` (a time of flight near the solution's), as E9 needs (0.001 d over
+    5 d: its m_f falls by 4 g within 0.001 d of the maximum); 0: off. Returns (solution, record
+    or None)."""
+    from .indirect.free_time import MaximumOptions, maximise_final_mass
+
+    if probe_days is None:
+        probe_days = min(PROBE_DAYS, PROBE_TOF_FRACTION * tof_days)
+    if probe_days == 0.0:
+        return sol, None
+    return maximise_final_mass(sol, MaximumOptions(probe_days=probe_days, verbose=not quiet,
+                                                   label="perturbed tof maximum"))
+
+
+def end_game_verdict(record: dict) -> str:
+    """One line on the end game's record (:func:`maximise_in_tof`)."""
+    if not record["certified"]:
+        return (f"the free-time end game certified no maximum of m_f in t_f ({record['status']}); "
+                "the free-time solution is kept")
+    return (f"a certified local maximum of m_f in t_f at {record['tof_days']:.5f} d "
+            f"({record['m_f_gain_kg'] * 1e3:+.3f} g against the free-time Newton point)")
 
 
 def parse_perturbations(args) -> dict | None:
