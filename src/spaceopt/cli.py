@@ -40,8 +40,7 @@ import time
 from pathlib import Path
 
 SCALARS = ("tof_days", "m_f_kg", "burn_days", "dv_m_s", "K_f_deg")
-PROBE_DAYS = 0.05                   # the end game's probe, perturbed.numerics.tof_maximum of the workflow
-PROBE_TOF_FRACTION = 2e-4           # ... at most this fraction of the time of flight (E9: 0.001 d over 5 d)
+PROBE_TOF_FRACTION = 2e-4           # the end game's probe at most this fraction of the time of flight (E9)
 ORBIT_KEYS = {"a_km": 1e3, "e": 1.0, "i_deg": 1.0, "raan_deg": 1.0, "argp_deg": 1.0}
 
 
@@ -205,14 +204,14 @@ def maximise_in_tof(sol, probe_days: float | None, tof_days: float, quiet: bool 
     """The free-time end game of the perturbed solution ``sol``, as every perturbed solve of the
     workflow ends (:func:`spaceopt.indirect.free_time.maximise_final_mass`): the local maximum of
     m_f in t_f next to it, certified by a sign change of p_t(K_f) between fixed-time extremals.
-    ``probe_days``: its probes' distance from t_f; None: the workflow's 0.05 d, at most
+    ``probe_days``: its probes' distance from t_f; None: the library's and workflow's 0.05 d, at most
     2·10⁻⁴ of ``tof_days`` (a time of flight near the solution's), as E9 needs (0.001 d over
     5 d: its m_f falls by 4 g within 0.001 d of the maximum); 0: off. Returns (solution, record
     or None)."""
     from .indirect.free_time import MaximumOptions, maximise_final_mass
 
     if probe_days is None:
-        probe_days = min(PROBE_DAYS, PROBE_TOF_FRACTION * tof_days)
+        probe_days = min(MaximumOptions.probe_days, PROBE_TOF_FRACTION * tof_days)
     if probe_days == 0.0:
         return sol, None
     return maximise_final_mass(sol, MaximumOptions(probe_days=probe_days, verbose=not quiet,
