@@ -60,7 +60,7 @@ import jax.numpy as jnp
 
 from . import column_threads, hamiltonians as hm
 from .flow import (STEP_BOUND, StepMemory, capped, field, field_with_tangents, hamiltonian, ot_delta, padded_samples,
-                   params_at, primal_control, require_success, uniform_samples)
+                   params_at, primal_control, require_success, step_control, uniform_samples)
 from .shooting import _start_jit, initial_state, terminal_residual, terminal_with_derivatives
 from .transfer import datum
 
@@ -288,7 +288,7 @@ def propagate_with_sensitivities(model, y0, Phi0, Kf, tau, prm, rtol, atol, max_
         return field_with_tangents(lambda yy, tt: field(model, K, yy, tt, a[1], delta=a[2]), Y[0], a[0], Y[1],
                                    tau_tangent)
 
-    controller = StepMemory(capped(primal_control(rtol, atol), max_steps))
+    controller = StepMemory(step_control(rtol, atol, max_steps))
 
     def arc(c):
         i, K, y, Phi, delta, steps, ok, dt = c
