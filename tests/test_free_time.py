@@ -190,6 +190,36 @@ def test_past_a_fold_where_phi_keeps_its_sign_the_walk_goes_on_downhill_only_whe
     assert min(p.z[0] for p in s.points) < -1.0 / np.sqrt(3.0) < max(p.z[0] for p in s.points)
 
 
+class FarSheetFamily(FoldFamily):
+    """CUBIC, where the corrector of the first arclength step past u = 0.4 converges on a far
+    sheet of the family (t_f 5 higher, lighter, φ > 0), as the exact map's E8 full 450 did
+    near a fold: the hyperplane of a step there runs almost along t_f."""
+
+    def __init__(self):
+        super().__init__(CUBIC_PHI, CUBIC_MASS, probe_days=0.02, shape=CUBIC, max_points=100)
+        self.opt = dataclasses.replace(self.opt, downhill_folds=1, max_arc_step=8.0)
+        self.far = []
+
+    def correct(self, x_pred, border=None, J=None):
+        p = super().correct(x_pred, border, J)
+        if p is None or border is None or self.far or x_pred[0] < 0.4:
+            return p
+        tf = p.tf + 5.0
+        self.far.append(tf)
+        return ft.FixedTimePoint(tf, np.array([p.z[0], -tf]), p.J, p.m_f - 1.0, 1.0)
+
+
+def test_an_arclength_step_that_lands_on_a_far_sheet_is_retried_shorter():
+    """The walk of the downhill test above, with one corrector landing 5 days of t_f away from
+    its predictor: the step counts as failed, it is retried at half the length, and the walk
+    reaches the same maximum (u = 1.2) with no point of the far sheet kept."""
+    fam = FarSheetFamily()
+    s, (left, right), best = search_fold(fam, -0.7)
+    assert fam.far and not any(p.tf in fam.far for p in s.kept)
+    assert s.folds == 2 and s.downhill == 1
+    assert best.z[0] == pytest.approx(1.2, abs=1e-6) and best.tf == pytest.approx(1.2 ** 3 - 1.2, abs=1e-6)
+
+
 # A snake: t_f = u³ − u as CUBIC, φ with roots at u = −0.9 (first branch, − → + in t_f: a
 # maximum), 1.0 (third branch, + → −: a minimum) and 1.3 (third branch: a maximum, the heavier).
 SNAKE_PHI = np.polynomial.Polynomial.fromroots([-0.9, 1.0, 1.3])

@@ -423,7 +423,12 @@ class MaximumSearch:
         (:meth:`FixedTimeFamily.correct`, from a fresh Jacobian: the tangent at the new point
         needs its own, as ∂F/∂z changes fast near a fold); h starts at a quarter of the secant's
         length, doubles after each solved step up to ``max_arc_step`` times that length, halves
-        where the corrector fails (down to 1/64 of the secant). ``fold``: the tangent's t_f
+        where the corrector fails (down to 1/64 of the secant). A corrected point farther than h
+        from its predictor counts as a failure: the corrector's hyperplane crossed another sheet
+        of the family, not the piece the step follows. Near a fold the tangent has almost no t_f
+        component, so that hyperplane runs almost along t_f (E8 full 450 on the exact map, a step
+        of 4 secants at the fold at 289.740 d converged 2.7 d away, at 292.470 d;
+        docs/perturbed-e6-e7-e8.md, "fifty-ninth session"). ``fold``: the tangent's t_f
         component changed sign between the two points (a fold in t_f passed)."""
         fam = self.family
         a, last = trail[-2], trail[-1]
@@ -437,7 +442,13 @@ class MaximumSearch:
         self.log(f"  arclength from t_f {self.days(last.tf):.5f} d")
         self.arc_end = f"no sign change of phi within {self.budget} fixed-time solves"
         while self.within_budget():
-            p = fam.correct(last.x + h * v, np.append(theta2 * v[:-1], v[-1]))
+            x_pred = last.x + h * v
+            p = fam.correct(x_pred, np.append(theta2 * v[:-1], v[-1]))
+            if p is not None and inner(p.x - x_pred, p.x - x_pred) > h * h:
+                self.log(f"  arclength step {h / h_secant:.3g} of the secant landed at {self.where(p.tf)}, "
+                         f"{np.sqrt(inner(p.x - x_pred, p.x - x_pred)) / h:.3g} steps off its predictor: "
+                         "another branch")
+                p = None
             if p is None:
                 self.log(f"  arclength step {h / h_secant:.3g} of the secant failed")
                 if h <= h_secant / 64:
