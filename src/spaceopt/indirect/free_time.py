@@ -444,10 +444,10 @@ class MaximumSearch:
         while self.within_budget():
             x_pred = last.x + h * v
             p = fam.correct(x_pred, np.append(theta2 * v[:-1], v[-1]))
-            if p is not None and inner(p.x - x_pred, p.x - x_pred) > h * h:
+            off = np.inf if p is None else np.sqrt(inner(p.x - x_pred, p.x - x_pred))
+            if p is not None and off > h:
                 self.log(f"  arclength step {h / h_secant:.3g} of the secant landed at {self.where(p.tf)}, "
-                         f"{np.sqrt(inner(p.x - x_pred, p.x - x_pred)) / h:.3g} steps off its predictor: "
-                         "another branch")
+                         f"{off / h:.3g} steps off its predictor: another branch")
                 p = None
             if p is None:
                 self.log(f"  arclength step {h / h_secant:.3g} of the secant failed")
