@@ -435,8 +435,9 @@ class MaximumSearch:
         secant = last.x - a.x
         theta2 = secant[-1] ** 2 / max(float(secant[:-1] @ secant[:-1]), np.finfo(float).tiny)
         inner = lambda u, w: theta2 * float(u[:-1] @ w[:-1]) + float(u[-1] * w[-1])
-        unit = lambda u, along: (u if inner(u, along) >= 0.0 else -u) / np.sqrt(inner(u, u))
-        h_secant = np.sqrt(inner(secant, secant))
+        length = lambda u: np.sqrt(inner(u, u))
+        unit = lambda u, along: (u if inner(u, along) >= 0.0 else -u) / length(u)
+        h_secant = length(secant)
         h_max = self.opt.max_arc_step * h_secant
         h, v = h_secant / 4, unit(fam.tangent(last), secant)
         self.log(f"  arclength from t_f {self.days(last.tf):.5f} d")
@@ -444,8 +445,7 @@ class MaximumSearch:
         while self.within_budget():
             x_pred = last.x + h * v
             p = fam.correct(x_pred, np.append(theta2 * v[:-1], v[-1]))
-            off = np.inf if p is None else np.sqrt(inner(p.x - x_pred, p.x - x_pred))
-            if p is not None and off > h:
+            if p is not None and (off := length(p.x - x_pred)) > h:
                 self.log(f"  arclength step {h / h_secant:.3g} of the secant landed at {self.where(p.tf)}, "
                          f"{off / h:.3g} steps off its predictor: another branch")
                 p = None
