@@ -100,13 +100,15 @@ def build_parser():
     s = sub.add_parser("solve", help="LP -> T_min existence check -> OT for one transfer")
     s.add_argument("--initial", required=True, help="initial orbit, e.g. a_km=36621,e=0.81,i_deg=7,raan_deg=0,argp_deg=178")
     s.add_argument("--final", required=True, help="final orbit, same keys")
-    s.add_argument("--m0-kg", required=True)
-    s.add_argument("--isp-s", required=True)
-    s.add_argument("--thrust-n", required=True)
-    s.add_argument("--n-rev", required=True)
-    s.add_argument("--l0-deg", default="0")
-    s.add_argument("--mu-km3-s2", default="398600.436")
-    s.add_argument("--eps-final", default="1e-5")
+    s.add_argument("--m0-kg", required=True, help="initial mass, kg")
+    s.add_argument("--isp-s", required=True, help="specific impulse, s (exhaust velocity Isp·g0)")
+    s.add_argument("--thrust-n", required=True, help="maximum thrust of the minimum-fuel problem, N")
+    s.add_argument("--n-rev", required=True,
+                   help="revolutions: the final true longitude is L0 + 360°·n_rev (need not be whole)")
+    s.add_argument("--l0-deg", default="0", help="initial true longitude L0 = Ω + ω + ν, deg (default 0)")
+    s.add_argument("--mu-km3-s2", default="398600.436", help="gravitational parameter, km³/s² (default: Earth's)")
+    s.add_argument("--eps-final", default="1e-5",
+                   help="the smoothing ε at which the minimum-fuel problem is solved (default 1e-5)")
     s.add_argument("--geopotential", default="none",
                    help="none | j2 | DxO (EGM96 degree x order, e.g. 4x4): the OT solution is then continued "
                         "into the perturbed problem")
@@ -122,8 +124,8 @@ def build_parser():
     s.add_argument("--tof-probe-days",
                    help="the free-time end game's probe of a perturbed solution, in days (default: 0.05, "
                         "at most 2e-4 of the time of flight); 0 turns the end game off")
-    s.add_argument("--out", default="results/user")
-    s.add_argument("--quiet", action="store_true")
+    s.add_argument("--out", default="results/user", help="folder of the artifacts (default results/user)")
+    s.add_argument("--quiet", action="store_true", help="no progress lines, only the results")
     return p
 
 
