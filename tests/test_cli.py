@@ -26,6 +26,17 @@ def test_thrust_below_tmin_gives_a_verdict_not_an_error(tmp_path, capsys):
     assert not (tmp_path / "ot.json").exists()
 
 
+def test_a_transfer_that_runs_past_de405_is_named_by_its_epoch(tmp_path):
+    """The epoch lies inside DE405, the transfer's Moon and Sun window does not: the one-line
+    error names the user's option (--epoch-utc) and the window, not the window's internal key."""
+    from spaceopt.errors import ConfigError
+    with pytest.raises(ConfigError) as err:
+        cli._ephemeris_window({"third_bodies": ["moon"]}, "2201-02-18T00:00:00", 10.0, tmp_path, {})
+    assert err.value.key == "epoch_utc" and err.value.value == "2201-02-18T00:00:00"
+    assert "2201-02-17T00:00:00 to 2201-04-09T00:00:00: outside DE405" in str(err.value)
+    assert not (tmp_path / "ephemeris.json").exists()
+
+
 def test_non_convergence_writes_a_diagnosis_and_exits_2(tmp_path, capsys, monkeypatch):
     original = chain.solve_lp
 

@@ -269,10 +269,15 @@ def _ephemeris_window(perturbations: dict, epoch: str, tof_days: float, out: Pat
     if not perturbations["third_bodies"]:
         return None
     from datetime import datetime, timedelta
+    from .errors import ConfigError
     from .ephemeris import extract_window, save_window
     t0 = datetime.fromisoformat(epoch)
-    span = (t0 - timedelta(days=1), t0 + timedelta(days=2 * tof_days + 30))
-    window = extract_window(*(d.strftime("%Y-%m-%dT%H:%M:%S") for d in span), name="cli")
+    start, end = ((t0 + timedelta(days=d)).strftime("%Y-%m-%dT%H:%M:%S") for d in (-1, 2 * tof_days + 30))
+    try:
+        window = extract_window(start, end, name="cli")
+    except ConfigError as exc:        # named after the user's option, not the window's own key
+        raise ConfigError("epoch_utc", epoch, f"the Moon and Sun window of this transfer, {start} to {end}: "
+                                              f"{exc.reason}") from None
     path = out / "ephemeris.json"
     save_window(window, path, cfg)
     return str(path)
