@@ -36,7 +36,7 @@ from .flow import (STEP_BOUND, Model, capped, field as flow_field, model_blend_p
                    require_success, uniform_samples)
 from .multiple_shooting import MultipleShooting, node_positions, start_nodes
 from .multiple_shooting import residual as multiple_residual, shoot as multiple_shoot
-from .shooting import Shooting, initial_state, residual, shoot
+from .shooting import Shooting, final_state, initial_state, residual, shoot
 from .transfer import Transfer, datum
 
 ORBIT_COSTATES = (hm.P, hm.EX, hm.EY, hm.IX, hm.IY, hm.LK)
@@ -515,6 +515,20 @@ def continue_ot_in_thrust(ot: Solution, thrust_N: float, options=None, label="ot
 
 
 # ---------------------------------------------------------------- dense trajectories
+
+def check_arrival_in_window(sol: Solution, model, what: str) -> None:
+    """ConfigError naming ``what``, the window and the date where the arrival of ``sol`` (its time
+    of flight counted from the epoch of the perturbation model ``model``) lies outside ``model``'s
+    Moon and Sun window. The window is NaN outside (:class:`spaceopt.ephemeris.ChebyshevEphemeris`),
+    and a path started from ``sol`` under ``model`` evaluates it at τ = 0 already (τ · NaN): its
+    first integration would fail without saying why, after minutes of rejected steps (E1, 2
+    revolutions: 176 s). Costs one propagation of ``sol``."""
+    if model is None or model.eph is None:
+        return
+    yf, _ = final_state(sol.shooting, jnp.asarray(sol.z), sol.tau, sol.prm)
+    model.eph.check_time(float(model.epoch) + float(yf[hm.TIME]) * sol.transfer.tu,
+                         key=f"{what} (ephemeris window {model.eph.name})")
+
 
 def final_model(sol: Solution) -> Model:
     """The field of the converged problem at τ = 1."""

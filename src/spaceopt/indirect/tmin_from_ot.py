@@ -40,7 +40,7 @@ import numpy as np
 
 from ..errors import ConvergenceError
 from . import hamiltonians as hm
-from .chain import Solution, _path_tolerances, shooting_for, smoothing_to, start_vector
+from .chain import Solution, _path_tolerances, check_arrival_in_window, shooting_for, smoothing_to, start_vector
 from .continuation import ArclengthContinuation, ArclengthOptions
 from .flow import model_blend_params
 from .shooting import final_state, shoot
@@ -185,18 +185,6 @@ def _fixed_tau(sh, prm, weight, T_ot):
     return lambda z, tau: on_s(z, 1.0 - tau)
 
 
-def _check_arrival_in_window(bound: Solution, prm) -> None:
-    """ConfigError naming the date where the bound's arrival lies outside the target model's
-    ephemeris window: the Moon and Sun are NaN there, and the blend's first integration would fail
-    without saying why (E7: the bounds arrive after 150-160 d, the OT after 88 d)."""
-    eph = prm["pert"].eph
-    if eph is None:
-        return
-    yf, _ = final_state(bound.shooting, jnp.asarray(bound.z), bound.tau, bound.prm)
-    arrival = float(prm["pert"].epoch) + float(yf[hm.TIME]) * float(prm["tu"])
-    eph.check_time(arrival, key=f"arrival of the bound carried over (ephemeris window {eph.name})")
-
-
 def bound_in_model(bound: Solution, tr_to, options: FromOtOptions = FromOtOptions(),
                    label="tmin bound model") -> Solution:
     """An upper bound on T_min under the force model of ``tr_to``, from a bound under another.
@@ -219,7 +207,8 @@ def bound_in_model(bound: Solution, tr_to, options: FromOtOptions = FromOtOption
     tau_ot, weight = bound.tau, bound.extra["weight"]
     T_ot = bound.extra["T_ot_N"] / tr_to.force_unit
     prm = tr_to.params(thrust=bound.extra["T_ot_N"])
-    _check_arrival_in_window(bound, prm)
+    # E7: the bounds arrive after 150-160 d, the OT after 88 d
+    check_arrival_in_window(bound, prm["pert"], "arrival of the bound carried over")
     blend_prm = {**model_blend_params(prm, bound.prm["pert"]), "tau_ot": tau_ot}
     sh = shooting_for("tmin", "model", tr_to)
     rtol, atol = _path_tolerances(sh)

@@ -350,6 +350,7 @@ def perturb_from_unperturbed(sol: Solution, tr_to: Transfer, label: str, path: s
         z, stats = chain._run(sh_pert, z, prm, label, options, path=path)
         return Solution("ot", sh_p, z, prm, tr_to, stats, thrust_N=sol.thrust_N)
 
+    chain.check_arrival_in_window(sol, tr_to.perturbation_model(), "arrival of the transfer switched on")
     out = switch_on(sol) if eps_smooth is None else chain.through_smoothing(sol, eps_smooth, switch_on, options, label)
     out.stats["continued_from"] = "unperturbed OT (perturbations switched on by tau" + (
         f" at eps = {eps_smooth:g})" if eps_smooth is not None else ")")
