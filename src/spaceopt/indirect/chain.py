@@ -522,7 +522,7 @@ def check_arrival_in_window(sol: Solution, model, what: str) -> None:
     Moon and Sun window. The window is NaN outside (:class:`spaceopt.ephemeris.ChebyshevEphemeris`),
     and a path started from ``sol`` under ``model`` evaluates it at τ = 0 already (τ · NaN): its
     first integration would fail without saying why, after minutes of rejected steps (E1, 2
-    revolutions: 176 s). Costs one propagation of ``sol``."""
+    revolutions: 179 s). Costs one propagation of ``sol``."""
     if model is None or model.eph is None:
         return
     yf, _ = final_state(sol.shooting, jnp.asarray(sol.z), sol.tau, sol.prm)
