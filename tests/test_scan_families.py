@@ -95,11 +95,12 @@ def test_a_link_continued_in_the_epoch_lands_on_the_extremal_solved_at_the_new_d
     assert not F.same_extremal(rec["m_f_kg"], rec["tof_days"], scan_b["m_f_kg"] - 0.05, scan_b["tof_days"], SETTINGS)
 
 
-def test_a_date_whose_transfer_runs_past_the_ephemeris_window_is_refused_up_front(e1_g22_era, tmp_path):
-    """Switching the Moon on from the unperturbed extremal over a window that ends before the
-    transfer does: one ConfigError naming the arrival and the window, before any path step (the
-    ephemeris is NaN outside its window, and the path would fail at its first point after minutes
-    of rejected integration steps, saying only "integration failed at the starting point")."""
+def test_a_transfer_that_arrives_after_its_ephemeris_window_is_refused_up_front(e1_g22_era, tmp_path):
+    """Switching the Moon on over a window that ends before the transfer does (an E6 date moved
+    past its window), from the unperturbed extremal or from a perturbed one: one ConfigError
+    naming the arrival and the window, before any path step (the ephemeris is NaN outside its
+    window, and the path would fail at its first point after minutes of rejected integration
+    steps, saying only "integration failed at the starting point")."""
     from spaceopt import ephemeris
     from spaceopt.errors import ConfigError
     from spaceopt.studies import perturbed as P
@@ -112,6 +113,11 @@ def test_a_date_whose_transfer_runs_past_the_ephemeris_window_is_refused_up_fron
     with pytest.raises(ConfigError, match=r"arrival of the transfer switched on \(ephemeris window short\)="
                                           r"'2021-05-11T.*outside ephemeris window 'short'"):
         P.perturb_from_unperturbed(ot, with_moon, "short", options=ContinuationOptions(verbose=False))
+    # the same from the perturbed extremal (2×2): every warm start of one perturbed problem from
+    # another (a new date, force model or revolution count) checks it first too
+    with pytest.raises(ConfigError, match=r"arrival of the warm start \(ephemeris window short\)="
+                                          r"'2021-05-11T.*outside ephemeris window 'short'"):
+        P.warm_start(noon, with_moon, "short", options=ContinuationOptions(verbose=False))
 
 
 def test_a_continuation_that_does_not_reach_the_new_date_is_a_result_not_an_error(monkeypatch):

@@ -215,6 +215,7 @@ def warm_start(sol: Solution, tr_to: Transfer, label: str, options=None, eps_smo
                                         options=options)
     sol = warm_start_integration(sol, tr_to)
     prm_to = tr_to.params(thrust=sol.thrust_N)
+    chain.check_arrival_in_window(sol, prm_to["pert"], "arrival of the warm start")
     if sol.transfer.epoch_utc != tr_to.epoch_utc:
         # new departure date (E6): the epoch moves continuously from the old date to the new one
         # (prm['epoch_offset_s'] from t0_old − t0_new to 0), a natural homotopy in the date
