@@ -97,7 +97,8 @@ def test_a_link_continued_in_the_epoch_lands_on_the_extremal_solved_at_the_new_d
 
 def test_a_transfer_that_arrives_after_its_ephemeris_window_is_refused_up_front(e1_g22_era, tmp_path):
     """Switching the Moon on over a window that ends before the transfer does (an E6 date moved
-    past its window), from the unperturbed extremal or from a perturbed one: one ConfigError
+    past its window), from the unperturbed extremal, from a perturbed one, or in the chain from
+    the zero guess after its LP: one ConfigError
     naming the arrival and the window, before any path step (the ephemeris is NaN outside its
     window, and the path would fail at its first point after minutes of rejected integration
     steps, saying only "integration failed at the starting point")."""
@@ -118,6 +119,11 @@ def test_a_transfer_that_arrives_after_its_ephemeris_window_is_refused_up_front(
     with pytest.raises(ConfigError, match=r"arrival of the warm start \(ephemeris window short\)="
                                           r"'2021-05-11T.*outside ephemeris window 'short'"):
         P.warm_start(noon, with_moon, "short", options=ContinuationOptions(verbose=False))
+    # and the chain from the zero guess (E5's route), after its LP, before the perturbations go on
+    with pytest.raises(ConfigError, match=r"arrival of the minimum-power solution \(ephemeris window short\)="
+                                          r"'2021-05-1[12]T.*outside ephemeris window 'short'"):
+        P.solve_for(dataclasses.replace(with_moon, thrust=15.0), "short", route="lp-tmin-ot",
+                    options=ContinuationOptions(verbose=False))
 
 
 def test_a_continuation_that_does_not_reach_the_new_date_is_a_result_not_an_error(monkeypatch):

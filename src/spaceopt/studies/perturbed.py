@@ -171,6 +171,8 @@ def solve_for(tr: Transfer, label: str, lp_perturbed: bool = False, path: str = 
         raise ConfigError("perturbed.cases.blend_ref", blend_ref,
                           f"expected a number or one of {', '.join(chain.BLEND_REFS)}")
     lp = chain.solve_lp(tr, options, label=f"{label}/lp", perturbed=lp_perturbed and tr.perturbed)
+    if tr.perturbed:       # the next homotopy switches the perturbations on along the LP's trajectory
+        chain.check_arrival_in_window(lp, tr.perturbation_model(), "arrival of the minimum-power solution")
     if route == "lp-ot":
         ot = chain.solve_ot(lp, tr.thrust, options, label=f"{label}/ot", blend_ref=blend_ref, path=path,
                             switching=switching)
