@@ -98,10 +98,10 @@ def test_a_link_continued_in_the_epoch_lands_on_the_extremal_solved_at_the_new_d
 def test_a_transfer_that_arrives_after_its_ephemeris_window_is_refused_up_front(e1_g22_era, tmp_path):
     """Switching the Moon on over a window that ends before the transfer does (an E6 date moved
     past its window), from the unperturbed extremal, from a perturbed one, or in the chain from
-    the zero guess after its LP: one ConfigError
-    naming the arrival and the window, before any path step (the ephemeris is NaN outside its
-    window, and the path would fail at its first point after minutes of rejected integration
-    steps, saying only "integration failed at the starting point")."""
+    the zero guess after its LP: one ConfigError naming the arrival and the window, before any
+    path step (the ephemeris is NaN outside its window, and the path would fail at its first
+    point after minutes of rejected integration steps, saying only "integration failed at the
+    starting point")."""
     from spaceopt import ephemeris
     from spaceopt.errors import ConfigError
     from spaceopt.studies import perturbed as P

@@ -514,8 +514,6 @@ def continue_ot_in_thrust(ot: Solution, thrust_N: float, options=None, label="ot
     return sol
 
 
-# ---------------------------------------------------------------- dense trajectories
-
 def check_arrival_in_window(sol: Solution, model, what: str) -> None:
     """ConfigError naming ``what``, the window and the date where the arrival of ``sol`` (its time
     of flight counted from the epoch of the perturbation model ``model``) lies outside ``model``'s
@@ -529,6 +527,8 @@ def check_arrival_in_window(sol: Solution, model, what: str) -> None:
     model.eph.check_time(float(model.epoch) + float(yf[hm.TIME]) * sol.transfer.tu,
                          key=f"{what} (ephemeris window {model.eph.name})")
 
+
+# ---------------------------------------------------------------- dense trajectories
 
 def final_model(sol: Solution) -> Model:
     """The field of the converged problem at τ = 1."""
