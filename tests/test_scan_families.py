@@ -100,8 +100,8 @@ def test_a_transfer_that_arrives_after_its_ephemeris_window_is_refused_up_front(
     past its window), from the unperturbed extremal, from a perturbed one, or in the chain from
     the zero guess after its LP: one ConfigError naming the arrival and the window, before any
     path step (the ephemeris is NaN outside its window, and the path would fail at its first
-    point after minutes of rejected integration steps, saying only "integration failed at the
-    starting point")."""
+    point after minutes of zero-length integration steps at the window's end, saying only
+    "integration failed at the starting point")."""
     from spaceopt import ephemeris
     from spaceopt.errors import ConfigError
     from spaceopt.studies import perturbed as P

@@ -519,8 +519,9 @@ def check_arrival_in_window(sol: Solution, model, what: str) -> None:
     of flight counted from the epoch of the perturbation model ``model``) lies outside ``model``'s
     Moon and Sun window. The window is NaN outside (:class:`spaceopt.ephemeris.ChebyshevEphemeris`),
     and a path started from ``sol`` under ``model`` evaluates it at τ = 0 already (τ · NaN): its
-    first integration would fail without saying why, after minutes of rejected steps (E1, 2
-    revolutions: 179 s). Costs one propagation of ``sol``."""
+    first integration would fail without saying why, after minutes: its steps shrink to zero at
+    the window's end and it runs out its step cap in zero-length steps (E1, 2 revolutions: 179 s,
+    400 001 steps). Costs one propagation of ``sol``."""
     if model is None or model.eph is None:
         return
     yf, _ = final_state(sol.shooting, jnp.asarray(sol.z), sol.tau, sol.prm)
