@@ -95,7 +95,7 @@ def test_a_link_continued_in_the_epoch_lands_on_the_extremal_solved_at_the_new_d
     assert not F.same_extremal(rec["m_f_kg"], rec["tof_days"], scan_b["m_f_kg"] - 0.05, scan_b["tof_days"], SETTINGS)
 
 
-def test_a_transfer_that_arrives_after_its_ephemeris_window_is_refused_up_front(e1_g22_era, tmp_path):
+def test_a_transfer_that_arrives_after_its_ephemeris_window_is_refused_up_front(e1_g22_era, tmp_path, monkeypatch):
     """Switching the Moon on over a window that ends before the transfer does (an E6 date moved
     past its window), from the unperturbed extremal, from a perturbed one, or in the chain from
     the zero guess after its LP: one ConfigError naming the arrival and the window, before any
@@ -124,6 +124,15 @@ def test_a_transfer_that_arrives_after_its_ephemeris_window_is_refused_up_front(
                                           r"'2021-05-1[12]T.*outside ephemeris window 'short'"):
         P.solve_for(dataclasses.replace(with_moon, thrust=15.0), "short", route="lp-tmin-ot",
                     options=ContinuationOptions(verbose=False))
+    # Without the check, the path fails at its first point, in a few hundred integration steps:
+    # the steps shrink to zero at the window's end, where flow.StepCap stops the propagation
+    # (before it, the zero-length steps ran to the cap: 400 001 steps, minutes)
+    from spaceopt.errors import ConvergenceError
+    from spaceopt.indirect import chain
+    monkeypatch.setattr(chain, "check_arrival_in_window", lambda *args, **kwargs: None)
+    with pytest.raises(ConvergenceError, match="integration failed at the starting point") as failed:
+        P.perturb_from_unperturbed(ot, with_moon, "short", options=ContinuationOptions(verbose=False))
+    assert failed.value.diagnosis["integration_steps_total"] < 1000
 
 
 def test_a_continuation_that_does_not_reach_the_new_date_is_a_result_not_an_error(monkeypatch):

@@ -60,7 +60,7 @@ import jax.numpy as jnp
 
 from . import column_threads, hamiltonians as hm
 from .flow import (STEP_BOUND, StepMemory, capped, field, field_with_tangents, hamiltonian, ot_delta, padded_samples,
-                   params_at, primal_control, require_success, step_control, uniform_samples)
+                   params_at, require_success, step_control, uniform_samples)
 from .shooting import _start_jit, initial_state, terminal_residual, terminal_with_derivatives
 from .transfer import datum
 
@@ -127,7 +127,7 @@ def _segment(model, K, Kf, y, delta, noise, tau, prm, rtol, atol, segment_steps,
         return (2.0 * args[2] - 1.0) * switching(model, t, yy, args[0], args[1]) < -args[3]
     return diffrax.diffeqsolve(
         diffrax.ODETerm(_arc_rhs(model)), diffrax.Dopri8(), t0=K, t1=Kf, dt0=_first_step(dt), y0=y,
-        args=(tau, prm, delta, noise), stepsize_controller=StepMemory(primal_control(rtol, atol)),
+        args=(tau, prm, delta, noise), stepsize_controller=StepMemory(step_control(rtol, atol, segment_steps)),
         saveat=diffrax.SaveAt(t1=True, dense=True, controller_state=True), max_steps=segment_steps,
         throw=False, event=diffrax.Event(wrong_side))
 
@@ -222,7 +222,7 @@ def _locate(model, sol, Ka, Kb, delta, tau, prm, rtol, atol):
     tj = ts[jnp.maximum(jnp.searchsorted(ts, Ks, side="right") - 1, 0)]
     out = diffrax.diffeqsolve(
         diffrax.ODETerm(_arc_rhs(model)), diffrax.Dopri8(), t0=tj, t1=Ks, dt0=_first_step(Ks - tj),
-        y0=sol.evaluate(tj), args=(tau, prm, delta), stepsize_controller=primal_control(rtol, atol),
+        y0=sol.evaluate(tj), args=(tau, prm, delta), stepsize_controller=step_control(rtol, atol, RESTEP_STEPS),
         saveat=diffrax.SaveAt(t1=True), max_steps=RESTEP_STEPS, throw=False)
     return Ks, out.ys[-1], out.stats["num_steps"]
 
