@@ -45,7 +45,7 @@ Nine parts, all written to ``results/benchmarks/perturbed.json`` (parts not reru
    ``--exact-route-sensitivity-rtol X [Y …]`` runs the exact route once per value (key ``_sens<X>``).
 9. ``chain_rtol`` (``--chain-rtol-compare N``): at the end point of the E8 unperturbed chain to
    ε₁ (N revolutions), one full evaluation and one residual at the default path rtol (1e-9) and
-   at ``--chain-rtol`` (default 1e-7, ``config/e8_exact.yaml``'s), side by side, with the steps
+   at ``--chain-rtol`` (default 1e-7, E8's case's), side by side, with the steps
    and ‖J⁻¹ δJ‖ (:func:`chain_rtol_comparison`).
 
 Usage:
@@ -440,11 +440,11 @@ def e8_exact_route(n_rev: float, corrector: str | None = None, last_model: str |
     exist (``results/perturbed/e8``) for comparison. ``corrector``: the continuation corrector of
     the chain from the zero guess ('newton' | 'chord', ``ContinuationOptions``; None: the case's,
     ``perturbed_config.case_corrector``, as the DAG's chain takes it); the warm starts
-    take the case's ``model_step`` (``config/e8_exact.yaml``: J2 in τ with the chord corrector,
+    take the case's ``model_step`` (E8's: J2 in τ with the chord corrector,
     the full model in arclength with truncated-SVD steps).
     ``last_model``: the route stops after that model (no end game unless it is the case's last).
     ``sensitivity_rtol``: the exact map's Jacobians at that looser rtol (``Shooting.sensitivity_rtol``,
-    the case option of ``config/e8_exact.yaml``); None: the case's (``--configfile``)."""
+    E8's case option); None: the case's (``--configfile``)."""
     from spaceopt.indirect import chain
     from spaceopt.indirect.free_time import MaximumOptions, maximise_final_mass
     from spaceopt.studies import perturbed as P, perturbed_config as C
@@ -634,8 +634,8 @@ def sensitivity_comparison(n_rev: float, sensitivity_rtol: float, rounds: int) -
     sh, z, prm, tol = _blend_jacobian_at(n_rev)
     if sh.switching != "exact":
         raise SystemExit(f"--sensitivity-compare {n_rev:g}: the 4x4 artifact is on the {sh.switching} map, "
-                         "not the exact one (make it with --configfile config/e8_exact.yaml)")
-    # both layouts named: under config/e8_exact.yaml the blend's own already has a sensitivity_rtol
+                         "not the exact one (the study config's E8 makes it; config/e8_smoothed.yaml does not)")
+    # both layouts named: on the exact route the blend's own already has a sensitivity_rtol
     layouts = {name: dataclasses.replace(sh, sensitivity_rtol=value)
                for name, value in (("path_rtol", None), ("sensitivity_rtol", sensitivity_rtol))}
 
@@ -764,7 +764,7 @@ def main(argv=None):
     ap.add_argument("--threads-compare", type=float, nargs="*", default=[],
                     help="revolution counts of the E8 blend Jacobian, 1 thread against --threads (default 2)")
     ap.add_argument("--configfile", nargs="+", default=[],
-                    help="config profiles over the study config for every part (e.g. config/e8_exact.yaml)")
+                    help="config profiles over the study config for every part (e.g. config/e8_smoothed.yaml)")
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
     CONFIGFILES[:] = a.configfile

@@ -23,11 +23,14 @@ def write_solve(base: Path, name: str, wall: float, jac: int, end_game: int | No
         "transfer": {"n_rev": 200.0}, "extra": extra}))
 
 
-def test_the_e8_routes_sum_the_solvers_and_the_end_games_jacobians(tmp_path):
+def test_the_e8_routes_sum_the_solvers_and_the_end_games_jacobians(tmp_path, monkeypatch):
+    """--configfile config/e8_smoothed.yaml (every model from the one before it at 200): the route
+    to the full model sums all four solves, their end games included."""
     e8 = tmp_path / "perturbed" / "e8"
     e8.mkdir(parents=True)
     for model, (wall, jac, end_game) in SOLVES.items():
         write_solve(e8, f"{model}_n200", wall, jac, end_game)
+    monkeypatch.setattr(bench, "CONFIGFILES", [str(ROOT / "config/e8_smoothed.yaml")])
     out = bench.measured(tmp_path)
     assert out["e8"]["g44_moon_sun_n200"]["end_game_jacobian_evaluations"] == 20
     assert out["e8"]["unperturbed_n200"]["end_game_jacobian_evaluations"] == 0     # no end game
@@ -37,14 +40,13 @@ def test_the_e8_routes_sum_the_solvers_and_the_end_games_jacobians(tmp_path):
     assert route["j2_n200"]["jacobian_evaluations"] == 51 and "j2_n250" not in route    # only routes that exist
 
 
-def test_a_profile_s_model_from_takes_its_skipped_model_off_the_route(tmp_path, monkeypatch):
-    """--configfile config/e8_exact.yaml (model_from: the full model from J2): the route to the
-    full model sums the unperturbed, J2 and full solves; 4×4 is a solve beside it."""
+def test_model_from_takes_its_skipped_model_off_the_route(tmp_path):
+    """The study config's E8 (model_from: the full model from J2): the route to the full model
+    sums the unperturbed, J2 and full solves; 4×4 is a solve beside it."""
     e8 = tmp_path / "perturbed" / "e8"
     e8.mkdir(parents=True)
     for model, (wall, jac, end_game) in SOLVES.items():
         write_solve(e8, f"{model}_n200", wall, jac, end_game)
-    monkeypatch.setattr(bench, "CONFIGFILES", [str(ROOT / "config/e8_exact.yaml")])
     route = bench.measured(tmp_path)["e8_route_s"]
     assert route["g44_moon_sun_n200"] == {"wall_time_s": 700.0, "jacobian_evaluations": 40 + 11 + 27,
                                           "solves": ["unperturbed_n200", "j2_n200", "g44_moon_sun_n200"]}

@@ -18,6 +18,17 @@ PC = yaml.safe_load((ROOT / "config/studies/perturbed.yaml").read_text())["pertu
 PUB = ROOT / "config/published/yun2023_perturbed.yaml"
 
 
+def _with_profile(pc: dict, name: str) -> dict:
+    """``pc`` with the profile config/<name> over it, as --configfile merges it."""
+    from snakemake.utils import update_config
+    out = copy.deepcopy(pc)
+    update_config(out, yaml.safe_load((ROOT / "config" / name).read_text())["perturbed"])
+    return out
+
+
+SMOOTHED = _with_profile(PC, "e8_smoothed.yaml")     # E8 on the smoothed route (its options' tests)
+
+
 def test_schema_validates_config():
     import jsonschema
     schema = yaml.safe_load((ROOT / "config/schema/perturbed.schema.yaml").read_text())
@@ -580,11 +591,11 @@ def test_model_from_names_the_start_of_a_warm_start_and_is_checked():
     named, the others from the previous model, the first from the zero guess; the route to a model
     leaves out the models it skips; the report says where a step starts; bad values are one-line
     errors naming the key."""
-    models = PC["cases"]["e8"]["models"]
-    assert [C.case_start_model(PC, "e8", m) for m in models] == [None, *models[:-1]]
-    assert C.case_route(PC, "e8", "g44_moon_sun") == models
+    models = SMOOTHED["cases"]["e8"]["models"]
+    assert [C.case_start_model(SMOOTHED, "e8", m) for m in models] == [None, *models[:-1]]
+    assert C.case_route(SMOOTHED, "e8", "g44_moon_sun") == models
     assert all(s is None for s in C.case_start_models(PC)["e5"].values())     # model_start: chain
-    pc = copy.deepcopy(PC)
+    pc = copy.deepcopy(SMOOTHED)
     pc["cases"]["e8"]["model_from"] = {"g44_moon_sun": "j2"}
     assert C.case_start_model(pc, "e8", "g44_moon_sun") == "j2" and C.case_start_model(pc, "e8", "g44") == "j2"
     assert C.case_route(pc, "e8", "g44_moon_sun") == ["unperturbed", "j2", "g44_moon_sun"]
@@ -644,9 +655,9 @@ def test_corrector_is_read_and_reaches_the_chain_only():
     """Case option corrector (newton | chord | broyden): Newton's leaves the followers' defaults; chord goes
     into the options of the chain from the zero guess, not into the warm starts' (they keep
     Newton's); a bad value is a one-line error naming the key."""
-    assert C.case_corrector(PC, "e8") == PC["cases"]["e8"].get("corrector", "newton")
-    assert P.chain_options(PC, "e8") is None
-    pc = copy.deepcopy(PC)
+    assert C.case_corrector(SMOOTHED, "e8") == "newton"
+    assert P.chain_options(SMOOTHED, "e8") is None
+    pc = copy.deepcopy(SMOOTHED)
     pc["cases"]["e8"]["corrector"] = "chord"
     assert P.chain_options(pc, "e8").corrector == "chord"
     assert P.warm_start_options(pc, "e8", model="j2") is None
@@ -859,13 +870,13 @@ def test_e8_range_rows_say_which_counts_they_cover():
 
 def test_paper_section_says_how_the_e8_counts_start():
     """The §4.2 paper text follows perturbed.e8.count_start (independent chains or n → n) and
-    writes the ε values of the E8 route from the config."""
-    smoothing = C.e8_smoothing(PC)
-    assert smoothing["eps_final"] == PC["numerics"]["eps_final"]
-    assert smoothing["perturb_at_eps"] == PC["cases"]["e8"]["perturb_at_eps"]
+    writes the ε values of the E8 route from the config (the smoothed route, config/e8_smoothed.yaml)."""
+    smoothing = C.e8_smoothing(SMOOTHED)
+    assert smoothing["eps_final"] == SMOOTHED["numerics"]["eps_final"]
+    assert smoothing["perturb_at_eps"] == SMOOTHED["cases"]["e8"]["perturb_at_eps"]
     assert smoothing["model_step_at_eps"] == smoothing["eps_final"]       # E8 names none
-    steps = C.e8_model_steps(PC)
-    assert [s["model"] for s in steps] == PC["cases"]["e8"]["models"][2:]
+    steps = C.e8_model_steps(SMOOTHED)
+    assert [s["model"] for s in steps] == SMOOTHED["cases"]["e8"]["models"][2:]
     chain_text = R.paper_section([], {}, None, {}, [], e8_count_start="chain", smoothing=smoothing, e8_steps=steps)
     previous_text = R.paper_section([], {}, None, {}, [], e8_count_start="previous", smoothing=smoothing,
                                     e8_steps=steps)
@@ -873,8 +884,8 @@ def test_paper_section_says_how_the_e8_counts_start():
     assert "next smaller one" not in chain_text
     assert "next smaller one" in previous_text
     assert "skip" not in chain_text
-    skipped = C.e8_skipped(PC)       # the config's skip_n_rev, as the paper names it
-    assert skipped == [(m, float(n)) for m, ns in PC["e8"]["skip_n_rev"].items() for n in ns]
+    skipped = C.e8_skipped(SMOOTHED)       # the config's skip_n_rev, as the paper names it
+    assert skipped == [(m, float(n)) for m, ns in SMOOTHED["e8"]["skip_n_rev"].items() for n in ns]
     text = R.paper_section([], {}, None, {}, [], e8_count_start="chain", smoothing=smoothing, e8_steps=steps,
                            e8_skipped=[("g44_moon_sun", 450.0)])
     assert "skip\\_n\\_rev" in text and "g44\\_moon\\_sun at 450 revolutions" in text
@@ -884,7 +895,7 @@ def test_paper_section_says_how_the_e8_counts_start():
     assert r"switched on at $\varepsilon=3\cdot10^{-2}$" in R.e8_route_text("chain", other, [])
     assert r"smoothing $\varepsilon=5\cdot10^{-3}$" in R.e8_route_text("previous", other, [])
     # the model steps after J2, from the case options model_step and path_arcs
-    arcs = PC["cases"]["e8"]["path_arcs"]["g44_moon_sun"]
+    arcs = SMOOTHED["cases"]["e8"]["path_arcs"]["g44_moon_sun"]
     assert (r"to 4$\times$4 (in $\tau$); then to 4$\times$4 + Moon + Sun (in arclength, by multiple "
             f"shooting over {arcs} arcs, with Newton steps truncated below") in chain_text
     assert "flattest direction" in chain_text
@@ -1263,11 +1274,13 @@ def test_the_verification_sentence_states_the_worst_errors_and_the_perturbation_
 
 def test_tof_maximum_settings_merge_the_case_keys_into_the_numerics_ones():
     """The free-time end game: numerics.tof_maximum for every case, a case's own keys replacing
-    them one by one (E9: probes 0.001 d apart), null switching it off; a bad value is a one-line
-    error naming the key."""
+    them one by one (E9: probes 0.001 d apart; E8: the survey), a case's null key leaving the
+    numerics' (a profile's removal: config/e8_smoothed.yaml), null switching it off; a bad value is a
+    one-line error naming the key."""
     from spaceopt.config import validate_section
     base = PC["numerics"]["tof_maximum"]
-    assert P.tof_maximum_settings(PC, "e8") == base
+    assert P.tof_maximum_settings(PC, "e8") == {**base, **PC["cases"]["e8"]["tof_maximum"]}
+    assert P.tof_maximum_settings(SMOOTHED, "e8") == base
     e9 = P.tof_maximum_settings(PC, "e9")
     assert e9["probe_days"] == PC["cases"]["e9"]["tof_maximum"]["probe_days"] != base["probe_days"]
     assert {k: v for k, v in e9.items() if k != "probe_days"} == {k: v for k, v in base.items() if k != "probe_days"}
@@ -1416,38 +1429,53 @@ def test_a_model_carries_over_another_models_bound_only_where_both_are_checked_f
         C.existence_bound_from(bad)
 
 
-def test_the_exact_e8_profile_validates_and_selects_the_exact_route():
-    """config/e8_exact.yaml over the study config (as --configfile merges it): schema-valid, E8 on
-    the exact map, its model steps single shooting, the full model's in arclength with
-    truncated-SVD steps (the smoothed route's model_step), no smoothing ε for the warm starts,
+def test_e8_runs_on_the_exact_map_and_the_smoothed_profile_restores_the_smoothed_route():
+    """The study config's E8: schema-valid, on the exact map, its model steps single shooting,
+    the full model's in arclength with truncated-SVD steps, no smoothing ε for the warm starts,
     the sensitivities at a looser tolerance than the path's, the unperturbed chain's paths at a
-    looser rtol than the default (the other models' unchanged), the full model started from J2."""
+    looser rtol than the default (the other models' unchanged), the full model started from J2,
+    the survey in the end game. config/e8_smoothed.yaml over it (as --configfile merges it):
+    schema-valid, every one of those options back to the smoothed route's (its nulls remove the
+    exact route's values: the default tolerances, J2's default step, the numerics' end game)."""
     import jsonschema
-    from snakemake.utils import update_config          # how --configfile merges nested mappings
-    profile = yaml.safe_load((ROOT / "config/e8_exact.yaml").read_text())["perturbed"]
-    over = profile["cases"]["e8"]
-    pc = copy.deepcopy(PC)
-    update_config(pc, profile)
-    jsonschema.validate(pc, yaml.safe_load((ROOT / "config/schema/perturbed.schema.yaml").read_text()))
-    assert C.case_switching(pc, "e8") == "exact"
-    steps = {step["model"]: step for step in C.e8_model_steps(pc)}
+    schema = yaml.safe_load((ROOT / "config/schema/perturbed.schema.yaml").read_text())
+    jsonschema.validate(PC, schema)
+    jsonschema.validate(SMOOTHED, schema)
+    own = PC["cases"]["e8"]
+    assert C.case_switching(PC, "e8") == "exact"
+    steps = {step["model"]: step for step in C.e8_model_steps(PC)}
     assert all(step["arcs"] == 1 for step in steps.values()) and steps["g44"]["path"] == "tau"
     assert steps["g44_moon_sun"]["path"] == "arclength" and steps["g44_moon_sun"]["step_rcond"] > 0
-    kw = P.warm_start_kwargs(pc, "e8", "g44_moon_sun", n_rev=500)
+    kw = P.warm_start_kwargs(PC, "e8", "g44_moon_sun", n_rev=500)
     assert kw["eps_smooth"] is None and kw["model_step_eps"] is None
-    settings = P.tof_maximum_settings(pc, "e8")           # the survey added to the study's end game
+    settings = P.tof_maximum_settings(PC, "e8")           # the survey added to the study's end game
     assert settings["survey_days"] > 0 and settings["probe_days"] == PC["numerics"]["tof_maximum"]["probe_days"]
     assert ft.MaximumOptions(**settings).survey_days == settings["survey_days"]
-    tr = P.transfer_from_config(pc, "e8", "g44_moon_sun", n_rev=200)   # the Jacobians' own tolerance
-    assert tr.sensitivity_rtol == over["sensitivity_rtol"] > tr.path_rtol == PC["cases"]["e8"]["path_rtol"]["g44_moon_sun"]
-    chain_tr = P.transfer_from_config(pc, "e8", "unperturbed", n_rev=200)  # the chain's looser paths
-    assert chain_tr.path_rtol == over["path_rtol"]["unperturbed"] > P.transfer_from_config(pc, "e8", "j2").path_rtol
-    assert C.case_route(pc, "e8", "g44_moon_sun") == ["unperturbed", "j2", "g44_moon_sun"]   # 4x4 beside it
-    j2 = P.warm_start_kwargs(pc, "e8", "j2")                 # J2 switched on in tau, chord steps
+    tr = P.transfer_from_config(PC, "e8", "g44_moon_sun", n_rev=200)   # the Jacobians' own tolerance
+    assert tr.sensitivity_rtol == own["sensitivity_rtol"] > tr.path_rtol == own["path_rtol"]["g44_moon_sun"]
+    chain_tr = P.transfer_from_config(PC, "e8", "unperturbed", n_rev=200)  # the chain's looser paths
+    assert chain_tr.path_rtol == own["path_rtol"]["unperturbed"] > P.transfer_from_config(PC, "e8", "j2").path_rtol
+    assert C.case_route(PC, "e8", "g44_moon_sun") == ["unperturbed", "j2", "g44_moon_sun"]   # 4x4 beside it
+    j2 = P.warm_start_kwargs(PC, "e8", "j2")                 # J2 switched on in tau, chord steps
     assert j2["model_path"] == "tau" and j2["options"].corrector == "chord"
-    assert C.e8_runs(pc) == [(m, float(n)) for m in pc["e8"]["run_models"] for n in pc["e8"]["run_n_rev"]]  # 450 too
-    text = R.e8_route_text("chain", C.e8_smoothing(pc), C.e8_model_steps(pc))
+    assert C.e8_runs(PC) == [(m, float(n)) for m in PC["e8"]["run_models"] for n in PC["e8"]["run_n_rev"]]  # 450 too
+    text = R.e8_route_text("chain", C.e8_smoothing(PC), C.e8_model_steps(PC))
     assert "exact bang-bang problem" in text and r"4$\times$4 + Moon + Sun from the $J_2$ extremal (in arclength" in text
+
+    sm = SMOOTHED
+    assert C.case_switching(sm, "e8") == "smoothed" and P.chain_options(sm, "e8") is None
+    steps = {step["model"]: step for step in C.e8_model_steps(sm)}
+    assert steps["g44_moon_sun"]["arcs"] == sm["cases"]["e8"]["path_arcs"]["g44_moon_sun"] > 1
+    assert P.warm_start_kwargs(sm, "e8", "g44_moon_sun", n_rev=500)["eps_smooth"] == sm["cases"]["e8"]["perturb_at_eps"]
+    j2 = P.warm_start_kwargs(sm, "e8", "j2")                 # J2's step as if the case named none
+    assert j2["model_path"] is None and C.case_model_step(sm["cases"]["e8"], "j2", "e8") == {}
+    assert P.tof_maximum_settings(sm, "e8") == PC["numerics"]["tof_maximum"]
+    for model in sm["cases"]["e8"]["models"]:
+        tr = P.transfer_from_config(sm, "e8", model, n_rev=500)
+        assert tr.sensitivity_rtol is None and tr.path_step_budget is None
+    assert P.transfer_from_config(sm, "e8", "unperturbed").path_rtol == C.PATH_RTOL
+    assert P.transfer_from_config(sm, "e8", "g44_moon_sun").path_rtol == own["path_rtol"]["g44_moon_sun"]
+    assert C.case_start_model(sm, "e8", "g44_moon_sun", 500) == "g44" and C.case_start_model(sm, "e8", "g44_moon_sun", 450) == "j2"
 
 
 def test_the_thrust_ratio_blend_reference_is_the_lp_primer_times_t_over_t0():

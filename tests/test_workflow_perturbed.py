@@ -215,20 +215,22 @@ def test_the_e7_existence_check_starts_from_the_e7_ot_solves():
     assert "results/perturbed/e7/tmin_unperturbed.json" in table
 
 
-def test_the_exact_e8_profile_starts_the_full_model_from_j2_and_a_bad_model_from_is_one_line(tmp_path):
-    """config/e8_exact.yaml names model_from: {g44_moon_sun: j2}: the full model's E8 jobs take
-    the J2 artifact at their count, 4×4's still J2's; a model_from naming a later model stops the
-    plan with a one-line error naming the key."""
-    rc, out = smk("-n", "--forceall", "--cores", "2", "results/perturbed/e8.csv",
-                  "--configfile", str(ROOT / "config/e8_exact.yaml"))
-    assert rc == 0, out[-2000:]
-    e8 = planned_inputs(out, "perturbed_e8")
-    full = {o: i for o, i in e8.items() if "/g44_moon_sun_n" in o}
-    assert full
-    for output, inputs in full.items():
-        n = output.split("_n")[-1].rsplit(".", 1)[0]
-        assert f"results/perturbed/e8/j2_n{n}.json" in inputs
-        assert not any(i.startswith("results/perturbed/e8/g44_n") for i in inputs)
+def test_e8_s_full_model_starts_from_j2_or_by_the_smoothed_profile_from_4x4_and_a_bad_model_from_is_one_line(tmp_path):
+    """The study config's E8 names model_from: {g44_moon_sun: j2}: the full model's E8 jobs take
+    the J2 artifact at their count, 4×4's still J2's; config/e8_smoothed.yaml takes the full model
+    from 4×4 but at 450 (from J2); a model_from naming a later model stops the plan with a
+    one-line error naming the key."""
+    for profile, start in (((), lambda n: "j2"),
+                           (("--configfile", str(ROOT / "config/e8_smoothed.yaml")), lambda n: "j2" if n == "450" else "g44")):
+        rc, out = smk("-n", "--forceall", "--cores", "2", "results/perturbed/e8.csv", *profile)
+        assert rc == 0, out[-2000:]
+        e8 = planned_inputs(out, "perturbed_e8")
+        full = {o: i for o, i in e8.items() if "/g44_moon_sun_n" in o}
+        assert len(full) == len(PT["e8"]["run_n_rev"])
+        for output, inputs in full.items():
+            n = output.split("_n")[-1].rsplit(".", 1)[0]
+            starts = {i.split("/")[-1].rsplit("_n", 1)[0] for i in inputs if i.startswith("results/perturbed/e8/")}
+            assert starts == {start(n)}, (profile, output, inputs)
     bad = tmp_path / "bad.yaml"
     bad.write_text("perturbed:\n  cases:\n    e8:\n      model_from: {j2: g44_moon_sun}\n")
     rc, out = smk("-n", "--cores", "1", "results/perturbed/e8.csv", "--configfile", str(bad))

@@ -8,7 +8,7 @@ lengthen it at 450 (+2.27 d) and 500. Every route we ran to 450 starts at 450 (u
 extremal, carried to 450, give a shorter transfer?
 
 Route, all on the smoothed map at ε₁ = eps_blend (single shooting), with the exact profile's
-chain settings (``config/e8_exact.yaml`` + ``benchmarks/e8_exact_no_survey.yaml``):
+chain settings (the study config's E8 + ``benchmarks/e8_exact_no_survey.yaml``):
 
 1. unperturbed chain at 400 (LP → OT to ε₁, the profile's corrector: the chord when this was
    run, Broyden's since the fifty-fifth session; path rtol 1e-7);
@@ -61,7 +61,7 @@ def main(argv=None):
     a = ap.parse_args(argv)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    bench.CONFIGFILES[:] = [str(ROOT / "config/e8_exact.yaml"), str(ROOT / "benchmarks/e8_exact_no_survey.yaml")]
+    bench.CONFIGFILES[:] = [str(ROOT / "benchmarks/e8_exact_no_survey.yaml")]
     pc = bench._perturbed_config()
 
     transfer = functools.partial(bench._e8_at_eps_blend, pc)    # (model, n_rev): single shooting at ε₁

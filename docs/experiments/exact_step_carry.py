@@ -5,7 +5,7 @@ The exact map (spaceopt.indirect.exact_switching) restarts the integrator at eve
 segment end of pass 1 (32 steps) and for every y(K_s) restep: about 3 500 restarts at E8 500 rev.
 The case is the profile's J2 -> full model blend at tau 0.5 from the exact profile's J2 artifact
 (results/perturbed/e8/j2_n<N>.json, made by
-``snakemake --cores 2 results/perturbed/e8/j2_n<N>.json --configfile config/e8_exact.yaml ...``
+``snakemake --cores 2 results/perturbed/e8/j2_n<N>.json ...`` (E8 on the exact map, the study config's)
 with <N> in the run counts). Both programs are compiled first (the flag is read when a pass is
 traced, so each variant gets jits of its own), then ``rounds`` rounds in alternating order, the
 first dropped: wall time of pass 1 alone and of the Jacobian (shoot), steps, the paired median
@@ -39,7 +39,7 @@ PASS1, PASS2 = X._pass1.__wrapped__, X.propagate_with_sensitivities    # the lib
 
 def blend_at(n_rev):
     """(layout, z, data, path tolerances) of the J2 -> full blend from the exact profile's J2 artifact."""
-    B.CONFIGFILES[:] = ["config/e8_exact.yaml"]
+    B.CONFIGFILES[:] = []       # the study config: E8 on the exact map
     pc = B._perturbed_config()
     start = P.load(B.ROOT / "results" / "perturbed" / "e8" / f"j2_n{n_rev:g}.json")
     tr = dataclasses.replace(P.transfer_from_config(

@@ -24,8 +24,8 @@ STEP_SETTINGS = ("step_growth", "accepted_update", "corrector", "step_rcond", "f
 
 def _per_model(cc: dict, key: str, model: str, path: str, default, read):
     """Case option ``key``: one value for every model of the case, or a mapping {model: value}
-    (models not named, and cases without the option, get ``default``); ``read(cfg, key, path)``
-    checks a value."""
+    (models not named or null, and cases without the option, get ``default``: a profile removes a
+    model's value by writing null over it); ``read(cfg, key, path)`` checks a value."""
     val = cc.get(key)
     if not isinstance(val, dict):
         return default if val is None else read(cc, key, path)
@@ -33,13 +33,13 @@ def _per_model(cc: dict, key: str, model: str, path: str, default, read):
     if unknown:
         raise ConfigError(f"{path}.{key}.{unknown[0]}", val[unknown[0]],
                           f"not a model of the case (expected one of {', '.join(cc['models'])})")
-    return read(val, model, f"{path}.{key}") if model in val else default
+    return default if val.get(model) is None else read(val, model, f"{path}.{key}")
 
 
 def case_path_rtol(cc: dict, model: str, path: str) -> float:
     """Case option ``path_rtol``: the integration rtol while a homotopy path is followed, one
     number for every model of the case, or a mapping {model: rtol} (models not named, and cases
-    without the option, keep the default PATH_RTOL). E8 names only its full model: at 1e-9 the
+    without the option, keep the default PATH_RTOL). E8 names its full model (and 4×4): at 1e-9 the
     propagated Jacobian of 4×4 + Moon + Sun is too inaccurate for Newton's corrector (‖J⁻¹ δJ‖ =
     2.5 at the converged 200-revolution extremal; 0.27 at 1e-10, 0.008 at 1e-11, measured by
     docs/experiments/path_jacobian_accuracy.py)."""
@@ -164,7 +164,7 @@ def case_model_step(cc: dict, model: str, path: str, n_rev: float | None = None)
     ``corrector``, ``step_rcond``, ``flat_step``, ``end_overshoot`` and ``h_max`` (the largest
     step, in the path's own measure; :class:`~spaceopt.indirect.continuation.ContinuationOptions`,
     :class:`~spaceopt.indirect.continuation.ArclengthOptions`).
-    ``config/e8_exact.yaml`` switches J2 on in τ with the chord corrector: at 500 revolutions 14
+    E8 (on the exact map) switches J2 on in τ with the chord corrector: at 500 revolutions 14
     Jacobians against 37 with Newton's in τ and 52 in arclength, the same extremal
     (docs/perturbed-e6-e7-e8.md, "forty-second session").
     ``at_n_rev: {count: settings}`` overrides those continuation options for one revolution
@@ -208,7 +208,7 @@ def case_start_model(pc: dict, case: str, model: str, n_rev: float | None = None
     where that solve is the chain from the zero guess: the case's first model, and every model
     when the case says ``model_start: chain`` (E5, E7). Otherwise the model the case option
     ``model_from`` ({model: an earlier model of the case}) names for it, else the one before it in
-    ``models``. ``config/e8_exact.yaml`` starts the full model from J2: on the exact map at 500
+    ``models``. E8 (on the exact map) starts the full model from J2: on the exact map at 500
     revolutions the J2 → full blend took 44 Jacobians and landed on the certified maximum, where
     J2 → 4×4 → full took 16 + 64 and an end game of 33 (docs/perturbed-e6-e7-e8.md,
     "forty-second session"); 4×4 is then a solve beside the route, not on it.
