@@ -1281,6 +1281,12 @@ def test_tof_maximum_settings_merge_the_case_keys_into_the_numerics_ones():
     base = PC["numerics"]["tof_maximum"]
     assert P.tof_maximum_settings(PC, "e8") == {**base, **PC["cases"]["e8"]["tof_maximum"]}
     assert P.tof_maximum_settings(SMOOTHED, "e8") == base
+    nulled = copy.deepcopy(SMOOTHED)
+    assert nulled["cases"]["e8"]["tof_maximum"]["max_points"] is None
+    nulled["numerics"]["tof_maximum"]["max_points"] = 24        # the case's null leaves the numerics' value
+    assert P.tof_maximum_settings(nulled, "e8")["max_points"] == 24
+    nulled["numerics"]["tof_maximum"]["probe_days"] = None      # a null in the numerics: MaximumOptions' default
+    assert "probe_days" not in P.tof_maximum_settings(nulled, "e8")
     e9 = P.tof_maximum_settings(PC, "e9")
     assert e9["probe_days"] == PC["cases"]["e9"]["tof_maximum"]["probe_days"] != base["probe_days"]
     assert {k: v for k, v in e9.items() if k != "probe_days"} == {k: v for k, v in base.items() if k != "probe_days"}

@@ -365,13 +365,14 @@ def tof_maximum_settings(pc: dict, case: str) -> dict | None:
     """The end game's settings of ``case``: ``perturbed.numerics.tof_maximum``, each key the case's
     own ``tof_maximum`` gives replaced (E9: probes 0.001 d apart, its m_f(t_f) falls by 4 g within
     0.001 d of the maximum and the fixed-time Newton fails at 0.05 d), a key the case gives as null
-    not (a profile removes the case's value so); None (absent or null): off."""
+    not (a profile removes the case's value so; a null in the numerics leaves the key to
+    MaximumOptions); None (absent or null): off."""
     settings = pc["numerics"].get("tof_maximum")
     cc = pc["cases"][case]
     if "tof_maximum" in cc:
         own = cc["tof_maximum"]
         settings = None if own is None else {**(settings or {}), **{k: v for k, v in own.items() if v is not None}}
-    return settings or None
+    return {k: v for k, v in settings.items() if v is not None} if settings else None
 
 
 def maximise_in_tof(sol: Solution, pc: dict, case: str, label: str) -> tuple[Solution, dict | None]:
