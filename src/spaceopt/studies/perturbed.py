@@ -364,9 +364,9 @@ def perturb_from_unperturbed(sol: Solution, tr_to: Transfer, label: str, path: s
 def tof_maximum_settings(pc: dict, case: str) -> dict | None:
     """The end game's settings of ``case``: ``perturbed.numerics.tof_maximum``, each key the case's
     own ``tof_maximum`` gives replaced (E9: probes 0.001 d apart, its m_f(t_f) falls by 4 g within
-    0.001 d of the maximum and the fixed-time Newton fails at 0.05 d), a key the case gives as null
-    not (a profile removes the case's value so; a null in the numerics leaves the key to
-    MaximumOptions); None (absent or null): off."""
+    0.001 d of the maximum and the fixed-time Newton fails at 0.05 d). A null key is as if not
+    given: the case's leaves the numerics' value (a profile removes a case's value so), the
+    numerics' leaves MaximumOptions' default. None (the entry absent or null): off."""
     settings = pc["numerics"].get("tof_maximum")
     cc = pc["cases"][case]
     if "tof_maximum" in cc:

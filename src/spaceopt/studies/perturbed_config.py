@@ -39,10 +39,11 @@ def _per_model(cc: dict, key: str, model: str, path: str, default, read):
 def case_path_rtol(cc: dict, model: str, path: str) -> float:
     """Case option ``path_rtol``: the integration rtol while a homotopy path is followed, one
     number for every model of the case, or a mapping {model: rtol} (models not named, and cases
-    without the option, keep the default PATH_RTOL). E8 names its full model (and 4×4): at 1e-9 the
+    without the option, keep the default PATH_RTOL). E8 names its 4×4 and full models: at 1e-9 the
     propagated Jacobian of 4×4 + Moon + Sun is too inaccurate for Newton's corrector (‖J⁻¹ δJ‖ =
     2.5 at the converged 200-revolution extremal; 0.27 at 1e-10, 0.008 at 1e-11, measured by
-    docs/experiments/path_jacobian_accuracy.py)."""
+    docs/experiments/path_jacobian_accuracy.py). Its unperturbed chain follows its paths at a looser
+    1e-7 (docs/perturbed-guide.md §4)."""
     return _per_model(cc, "path_rtol", model, path, PATH_RTOL,
                       lambda cfg, key, where: number(cfg, key, where, positive=True))
 
