@@ -18,11 +18,17 @@ K_f, whether the engine is on at K = 0 and the number of burn arcs:
                             p_ey, p_ix, p_iy, p_LK, p_m), K_f printed: the residual on a grid of
                             the two unknown scales (c: cost unit, d: length-unit ratio), then the
                             Newton homotopy from the BEST grid points
-  printed_fit MODEL C D [E]  the printed costates of MODEL's column (unperturbed or g44_moon_sun)
-                            at the units that fit our problem best: least squares over the scales
-                            (c, d and, perturbed, e for p_t) from (C, D, E), then Levenberg-Marquardt
-                            in all unknowns at ε_f from there; prints both residuals and the landing
-                            point (fifty-sixth session)
+  printed_fit COLUMN[:MODEL] C D [E]
+                            the printed costates of COLUMN (unperturbed or g44_moon_sun) at the
+                            units that fit MODEL's problem (default: COLUMN's) best: least squares
+                            over the scales (c, d and, perturbed, e for p_t) from (C, D, E), then
+                            Levenberg-Marquardt in all unknowns at ε_f from there; prints both
+                            residuals and the landing point (fifty-sixth session;
+                            g44_moon_sun:unperturbed, the perturbed column in the unperturbed
+                            problem without its p_t: sixty-third session)
+  printed_typo C D          is one printed unperturbed entry a misprint? printed_fit's fit of
+                            (c, d) from (C, D) with one entry (or K_f) free, each in turn
+                            (sixty-third session)
   thrust T …                chain at thrust T, then continued in the thrust to 0.5 N
   smoothing EPS …           ours continued upwards in ε (is the published one a smoothed solution?)
   neighbour DATE …          perturbed (4×4 + Moon + Sun): the E6 scan's extremal of DATE
@@ -130,13 +136,15 @@ def variant(*names):
 
 def printed_column(model, sh):
     """The printed costates and K_f of Table 4.2.1.2's column for ``model``, in the order of
-    ``sh``'s unknowns."""
+    ``sh``'s unknowns (the perturbed column's p_t is dropped where ``sh`` has none)."""
     pub = yaml.safe_load(open("config/published/yun2023_perturbed.yaml"))
     costates = pub["printed_costates"][f"e5_{model}"]
-    assert costates["order"] == [n for n in sh.unknown_names() if n != "K_f"]
+    value = dict(zip(costates["order"], costates["value"]))
+    names = [n for n in sh.unknown_names() if n != "K_f"]
+    assert set(names) <= set(value)
     K_f = math.radians(next(r["value"] for r in pub["values"]
                             if r["case"] == f"e5_{model}" and r["quantity"] == "K_f_deg"))
-    return np.array(costates["value"]), K_f
+    return np.array([value[n] for n in names]), K_f
 
 
 def scaled_start(sh, z_pub, K_f, c, d, e=None):
@@ -164,31 +172,69 @@ def printed(best):
         solve_from(start(c, d), f"c={c:.4g} d={d:.4g}")
 
 
-def printed_fit(model, *scales):
-    from scipy.optimize import least_squares
-    tr = P.transfer_from_config(PC, "e5", model, ephemeris=None if model == "unperturbed" else
-                                P.ephemeris_path("results", PC["cases"]["e5"]["ephemeris"]))
-    sh, prm = chain.shooting_for("ot", "eps", tr), tr.params(thrust=tr.thrust)
-    z_pub, K_f = printed_column(model, sh)
+def shooter(sh, prm):
+    """f and J of the OT shooting map at ε_f, one propagation per point (the last one kept);
+    f = 1e3 in every row where the propagation fails."""
     shot = {}
 
-    def evaluate(z):                                # f and J at z, one propagation per point
+    def evaluate(z):
         key = z.tobytes()
         if key not in shot:
             shot.clear()
             shot[key] = S.shoot(sh, jnp.asarray(z), 1.0, prm)
         f, J, _, _, ok = shot[key]
         return (np.asarray(f), np.asarray(J)) if bool(ok) else (np.full(z.size, 1e3), None)
+    return evaluate
 
+
+def printed_fit(column, *scales):
+    from scipy.optimize import least_squares
+    column, _, model = column.partition(":")
+    model = model or column
+    tr = P.transfer_from_config(PC, "e5", model, ephemeris=None if model == "unperturbed" else
+                                P.ephemeris_path("results", PC["cases"]["e5"]["ephemeris"]))
+    sh, prm = chain.shooting_for("ot", "eps", tr), tr.params(thrust=tr.thrust)
+    z_pub, K_f = printed_column(column, sh)
+    evaluate = shooter(sh, prm)
     fit = least_squares(lambda q: evaluate(scaled_start(sh, z_pub, K_f, *np.exp(q)))[0],
                         np.log(np.asarray(scales, float)), diff_step=1e-4, max_nfev=300)
-    print(f"{model}: scales (c, d[, e]) = {np.round(np.exp(fit.x), 6).tolist()}, length unit "
+    tag = column if column == model else f"{column} column in the {model} problem"
+    print(f"{tag}: scales (c, d[, e]) = {np.round(np.exp(fit.x), 6).tolist()}, length unit "
           f"{tr.du / np.exp(fit.x[1]) / 1e3:.0f} km: |f| = {np.linalg.norm(fit.fun):.3e}", flush=True)
     lm = least_squares(lambda z: evaluate(z)[0], scaled_start(sh, z_pub, K_f, *np.exp(fit.x)),
                        jac=lambda z: evaluate(z)[1], method="lm", x_scale="jac",
                        xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=400)
-    print(f"{model}: Levenberg-Marquardt from there: |f| = {np.linalg.norm(lm.fun):.3e}", flush=True)
-    report(chain.Solution("ot", sh, lm.x, prm, tr, {}, thrust_N=tr.thrust), f"{model}, printed at fitted units")
+    print(f"{tag}: Levenberg-Marquardt from there: |f| = {np.linalg.norm(lm.fun):.3e}", flush=True)
+    report(chain.Solution("ot", sh, lm.x, prm, tr, {}, thrust_N=tr.thrust), f"{tag}, printed at fitted units")
+
+
+def printed_typo(c, d):
+    """Is one entry of the printed unperturbed column a misprint? For each entry in turn (the
+    costates, then K_f) the fit of printed_fit, with that entry free beside (c, d), from (C, D)
+    and the printed value times 1, −1, ½ and 2 (K_f: the printed value); prints the best |f| and
+    its rows. A misprint would show as one entry whose freeing drops |f| far below the 0.41 of the
+    printed column at its fitted units (the perturbed column: 2.4e-2)."""
+    from scipy.optimize import least_squares
+    z_pub, K_f = printed_column("unperturbed", SH)
+    names = [n for n in SH.unknown_names() if n != "K_f"] + ["K_f"]
+    evaluate = shooter(SH, PRM)
+    for k, name in enumerate(names):
+        def start(q):
+            z, kf = z_pub.copy(), K_f
+            if name == "K_f":
+                kf = q[2]
+            else:
+                z[k] = q[2]
+            return scaled_start(SH, z, kf, math.exp(q[0]), math.exp(q[1]))
+        printed_value = K_f if name == "K_f" else z_pub[k]
+        fits = [least_squares(lambda q: evaluate(start(q))[0],
+                              [math.log(float(c)), math.log(float(d)), printed_value * m],
+                              diff_step=1e-5, max_nfev=200)
+                for m in ((1.0,) if name == "K_f" else (1.0, -1.0, 0.5, 2.0))]
+        best = min(fits, key=lambda fit: fit.cost)
+        print(f"{name} free: |f| = {np.linalg.norm(best.fun):.3e} at c {math.exp(best.x[0]):.4g}, "
+              f"d {math.exp(best.x[1]):.4g}, value {best.x[2]:.6g} (printed {printed_value:.6g}); "
+              f"rows {np.round(best.fun, 4).tolist()}", flush=True)
 
 
 def thrust(*thrust_N):
@@ -228,5 +274,5 @@ def neighbour(*dates):
 
 if __name__ == "__main__":
     {"multistart": multistart, "foldjump": foldjump, "l0": l0, "variant": variant, "printed": printed,
-     "printed_fit": printed_fit, "thrust": thrust, "smoothing": smoothing,
+     "printed_fit": printed_fit, "printed_typo": printed_typo, "thrust": thrust, "smoothing": smoothing,
      "neighbour": neighbour}[sys.argv[1]](*sys.argv[2:])
