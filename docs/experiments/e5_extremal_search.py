@@ -30,6 +30,8 @@ K_f, whether the engine is on at K = 0 and the number of burn arcs:
                             (c, d) from (C, D) with one entry (or K_f) free, each in turn
                             (sixty-third session)
   thrust T …                chain at thrust T, then continued in the thrust to 0.5 N
+  isp ISP_S …               ours continued in the specific impulse to each ISP_S in turn
+                            (sixty-third session)
   smoothing EPS …           ours continued upwards in ε (is the published one a smoothed solution?)
   neighbour DATE …          perturbed (4×4 + Moon + Sun): the E6 scan's extremal of DATE
                             (results/perturbed/e6/DATE.json) continued in the departure epoch to
@@ -260,6 +262,24 @@ def smoothing(*eps):
             break
 
 
+def isp(*isp_s):
+    """Ours continued in the specific impulse (the exhaust velocity c of the shooting data) to
+    each ISP_S in turn, in arclength: does the Isp that gives the published m_f also give its Δt
+    and K_f (a datum of Table 4.2.1.1's case other than printed)?"""
+    _, sol = P.solve_for(TR, "ours", path="tau", options=QUIET, route="lp-tmin-ot")
+    report(sol, f"Isp={TR.isp:g}")
+    for value in map(float, isp_s):
+        tr = dataclasses.replace(TR, isp=value)
+        try:
+            sol = dataclasses.replace(chain.continue_in_params(sol, tr.params(thrust=tr.thrust), QUIET,
+                                                               label=f"Isp {value:g}", path="arclength"),
+                                      transfer=tr)
+            report(sol, f"Isp={value:g}")
+        except ConvergenceError as exc:
+            print(f"Isp={value:g}: no convergence ({exc})", flush=True)
+            break
+
+
 def neighbour(*dates):
     tr = P.transfer_from_config(PC, "e5", "g44_moon_sun",
                                 ephemeris=P.ephemeris_path("results", PC["cases"]["e5"]["ephemeris"]))
@@ -274,5 +294,5 @@ def neighbour(*dates):
 
 if __name__ == "__main__":
     {"multistart": multistart, "foldjump": foldjump, "l0": l0, "variant": variant, "printed": printed,
-     "printed_fit": printed_fit, "printed_typo": printed_typo, "thrust": thrust, "smoothing": smoothing,
+     "printed_fit": printed_fit, "printed_typo": printed_typo, "thrust": thrust, "isp": isp, "smoothing": smoothing,
      "neighbour": neighbour}[sys.argv[1]](*sys.argv[2:])
