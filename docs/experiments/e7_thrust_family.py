@@ -9,9 +9,10 @@ continued down in the thrust bounds T_min from above at every point it reaches. 
 minimum-thrust extremal exists the family folds in the thrust there (two always-on branches, the
 shortest and the longest transfer, merge at T_min).
 
-  family N T0,T1,… [EPS]
+  family N T0,T1,… [EPS [MODEL]]
                      the OT at N revolutions and thrust T0 (LP → OT blend, W_ref 1, arclength),
-                     moved to the smoothing EPS if given (default: ε_f), then continued in the
+                     moved to the smoothing EPS if given (default: ε_f), MODEL's perturbations
+                     (j2: no ephemeris needed) switched on there, then continued in the
                      thrust to T1, T2, … in arclength; prints per point m_f,
                      Δt, the largest apogee radius and eccentricity on the way, the least radius
                      the trajectory reaches (its own, sampled 400 times a revolution), and the
@@ -64,12 +65,16 @@ def ot_at(n_rev, thrust_N):
     return ot
 
 
-def family(n_rev, thrusts, eps=None):
+def family(n_rev, thrusts, eps=None, model="unperturbed"):
     n_rev, thrusts = float(n_rev), [float(x) for x in thrusts.split(",")]
     t = time.time()
     sol = ot_at(n_rev, thrusts[0])
     if eps is not None:
         sol = chain.smoothing_to(sol, float(eps), QUIET, label=f"eps {eps}")
+    if model != "unperturbed":       # switched on at the family's ε, which it keeps (E7's DAG: at 1e-2)
+        tr = dataclasses.replace(P.transfer_from_config(PC, "e7", model), n_rev=n_rev, thrust=thrusts[0],
+                                 eps_final=float(sol.prm["eps_final"]))
+        sol = P.perturb_from_unperturbed(sol, tr, f"{model} on", options=QUIET)
     print(f"T={thrusts[0]:g} N: {describe(sol, thrusts[0])} ({time.time() - t:.0f} s)", flush=True)
     for T in thrusts[1:]:
         t = time.time()
