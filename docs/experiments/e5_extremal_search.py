@@ -265,7 +265,7 @@ def smoothing(*eps):
 def isp(*isp_s):
     """Ours continued in the specific impulse (the exhaust velocity c of the shooting data) to
     each ISP_S in turn, in arclength: does the Isp that gives the published m_f also give its Δt
-    and K_f (a datum of Table 4.2.1.1's case other than printed)?"""
+    and K_f (was the published column solved with another Isp than the case's 1520 s)?"""
     _, sol = P.solve_for(TR, "ours", path="tau", options=QUIET, route="lp-tmin-ot")
     report(sol, f"Isp={TR.isp:g}")
     for value in map(float, isp_s):

@@ -20,8 +20,14 @@ shortest and the longest transfer, merge at T_min).
   bound N T0         the OT at N revolutions and thrust T0, then the DAG's bound
                      (``tmin_from_ot.solve_tmin_from_ot``) from it
 
-    .venv/bin/python docs/experiments/e7_thrust_family.py family 2 60,35,26,21,18.5,17.6,17,16,15,14
+    .venv/bin/python docs/experiments/e7_thrust_family.py family 2 60,35,26,21,18.5,17.6,17,16,15,14.9,14.85
     .venv/bin/python docs/experiments/e7_thrust_family.py bound 2 60
+    .venv/bin/python docs/experiments/e7_thrust_family.py family 100 1,0.8,0.6,0.5,0.45,0.4,0.37,0.35,0.33,0.32,0.31,0.3 1e-2
+    .venv/bin/python docs/experiments/e7_thrust_family.py family 100 1,0.6,0.45,0.37,0.33,0.32,0.31 1e-2 j2
+
+Measured (docs/perturbed-e6-e7-e8.md, sixty-third session): at 100 revolutions the family reaches
+0.30 N unperturbed and 0.31 N with J2, below the DAG's bounds (0.3091, 0.3110 N), its apogee
+running away (535 000 km at 0.30 N); at 2 revolutions 14.85 N against the bound's 16.16 N.
 """
 import dataclasses
 import sys
