@@ -39,10 +39,11 @@ import yaml
 
 jax.config.update("jax_enable_x64", True)
 from spaceopt.errors import ConvergenceError  # noqa: E402
-from spaceopt.indirect import chain, hamiltonians as hm  # noqa: E402
+from spaceopt.indirect import chain  # noqa: E402
 from spaceopt.indirect.continuation import ContinuationOptions  # noqa: E402
 from spaceopt.indirect.tmin_from_ot import solve_tmin_from_ot  # noqa: E402
 from spaceopt.studies import perturbed as P  # noqa: E402
+from spaceopt.studies.trajectory import sample  # noqa: E402
 
 QUIET = ContinuationOptions(verbose=False)
 PC = yaml.safe_load(open("config/studies/perturbed.yaml"))["perturbed"]
@@ -50,19 +51,15 @@ E7 = P.transfer_from_config(PC, "e7", "unperturbed")
 
 
 def describe(sol, thrust_N):
-    """m_f, Δt, the largest apogee radius and eccentricity, the least radius reached (the
-    trajectory's own, r = p / (1 + e_x cos L + e_y sin L), L = K + L_K) and the throttle's duty of
-    ``sol``."""
-    K, y = chain.dense(sol, 400)
-    tr = sol.transfer
-    e = np.hypot(y[:, hm.EX], y[:, hm.EY])
-    apogee_km = np.where(e < 1, y[:, hm.P] / (1 - e), np.inf) * tr.du / 1e3
-    L = K + y[:, hm.LK]
-    r_km = y[:, hm.P] / (1 + y[:, hm.EX] * np.cos(L) + y[:, hm.EY] * np.sin(L)) * tr.du / 1e3
-    m_f, dt_s = y[-1, hm.MASS] * tr.m0, y[-1, hm.TIME] * tr.tu
-    duty = (tr.m0 - m_f) / (thrust_N * dt_s / tr.c)
+    """m_f, Δt, the largest apogee radius and eccentricity, the least radius reached and the
+    throttle's duty of ``sol``, from its physical samples (``studies.trajectory.sample``)."""
+    s = sample(sol, 400)
+    apogee_km = np.where(s["e"] < 1, s["a_m"] * (1 + s["e"]), np.inf) / 1e3
+    m_f, dt_s = s["mass_kg"][-1], s["t_s"][-1]
+    duty = (sol.transfer.m0 - m_f) / (thrust_N * dt_s / sol.transfer.c)
     return (f"m_f {m_f:.3f} kg, dt {dt_s / 86400:.4f} d, max apogee {apogee_km.max():.0f} km, "
-            f"max e {e.max():.4f}, least radius {r_km.min():.0f} km, duty {duty:.4f}")
+            f"max e {s['e'].max():.4f}, least radius {np.linalg.norm(s['r_m'], axis=1).min() / 1e3:.0f} km, "
+            f"duty {duty:.4f}")
 
 
 def ot_at(n_rev, thrust_N):
