@@ -22,6 +22,7 @@ LONGEST_FIRST = ("test_quick_reproduction.py",)
 # workers at the same time each file compiled them for itself. test_cli's E9 check solves the
 # LP and OT under J2 with e1_j2_ot's programs (same layouts and step cap: measured, 3 programs).
 ONE_WORKER = {"test_exact_switching.py": "e1_j2", "test_tmin_bound_model.py": "e1_j2", "test_cli.py": "e1_j2",
+              "test_thrust_family.py": "e1_j2",
               "test_free_time.py": "e1_g22_era", "test_scan_families.py": "e1_g22_era"}
 
 # Files that compile programs of the quick DAG's jobs run last in their group, when those jobs

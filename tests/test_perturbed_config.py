@@ -12,6 +12,7 @@ from spaceopt.indirect import chain, free_time as ft
 from spaceopt.studies import perturbed as P
 from spaceopt.studies import perturbed_config as C
 from spaceopt.studies import perturbed_report as R
+from spaceopt.studies import thrust_family as TF
 
 ROOT = Path(__file__).resolve().parents[1]
 PC = yaml.safe_load((ROOT / "config/studies/perturbed.yaml").read_text())["perturbed"]
@@ -1509,3 +1510,27 @@ def test_the_thrust_ratio_blend_reference_is_the_lp_primer_times_t_over_t0():
         with pytest.raises(ConfigError) as info:
             validate_section(bad, "perturbed", ROOT / "config/schema/perturbed.schema.yaml")
         assert str(info.value).startswith("perturbed.cases.e9.blend_ref") and "\n" not in str(info.value)
+
+
+def test_the_thrust_family_settings_are_read_and_each_bad_one_is_one_line():
+    """perturbed.thrust_family (spaceopt.studies.thrust_family): E7's, with its defaults filled;
+    none for a case that is not run; every bad value named by its key."""
+    tf = TF.settings(PC)
+    assert list(tf) == ["e7"] and tf["e7"]["thrusts_N"][-1] < tf["e7"]["thrusts_N"][0] < PC["cases"]["e7"]["thrust_N"]
+    assert tf["e7"]["models"] == ["unperturbed", "j2", "g44_moon_sun"] and isinstance(tf["e7"]["max_steps"], int)
+    assert TF.settings({**PC, "run": ["e9"]}) == {}
+    assert TF.settings({**PC, "thrust_family": {"e7": {"thrusts_N": [0.5]}}}) == {
+        "e7": {"thrusts_N": [0.5], "eps": 1e-2, "models": ["unperturbed"], "max_steps": 2000}}
+    for family, match in (({"e10": {"thrusts_N": [0.5]}}, r"thrust_family.e10='e10'.*not a case"),
+                          ({"e7": [0.5]}, r"thrust_family.e7=\[0.5\].*mapping"),
+                          ({"e7": {"thrusts_N": 0.5}}, r"thrust_family.e7.thrusts_N=0.5.*list"),
+                          ({"e7": {"thrusts_N": [0.5, "x"]}}, r"thrust_family.e7.thrusts_N='x'.*finite number"),
+                          ({"e7": {"thrusts_N": [1.0]}}, r"thrusts_N=\[1.0\].*strictly from below the case's thrust \(1 N\)"),
+                          ({"e7": {"thrusts_N": [0.5, 0.6]}}, r"thrusts_N=\[0.5, 0.6\].*strictly"),
+                          ({"e7": {"thrusts_N": [0.5, 0.0]}}, r"thrusts_N=.*to above 0"),
+                          ({"e7": {"thrusts_N": [0.5], "eps": 1.5}}, r"thrust_family.e7.eps=1.5.*\(0, 1\)"),
+                          ({"e7": {"thrusts_N": [0.5], "models": ["g44"]}}, r"thrust_family.e7.models='g44'"),
+                          ({"e7": {"thrusts_N": [0.5], "max_steps": 0}}, r"thrust_family.e7.max_steps=0.*positive")):
+        with pytest.raises(ConfigError, match=match) as exc:
+            TF.settings({**PC, "thrust_family": family})
+        assert "\n" not in str(exc.value)

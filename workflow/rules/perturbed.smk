@@ -11,6 +11,8 @@
 #   results/perturbed/tof_maximum.csv                   the free-time end game of every perturbed solve
 #   results/perturbed/<case>/tmin_<model>.{json,...}    the minimum-thrust existence check per force model
 #   results/perturbed/existence.csv                     its table (E5, E7, E9)
+#   results/perturbed/<case>/family_<model>.{json,...}  the minimum-fuel family followed down in the thrust
+#   results/perturbed/thrust_family.csv                 its points (E7)
 import os
 from spaceopt.studies.failed_solves import diagnosis, failures_sentence, left_out, without_failed
 # the planning module imports no solver: every Snakemake run parses this file
@@ -19,9 +21,11 @@ from spaceopt.studies.perturbed_config import (case_start_model, case_start_mode
                                                existence_from_ot, existence_runs, link_pairs, link_settings,
                                                scan_dates, scan_run_dates, scan_source, start_pairs, walk_dates,
                                                walk_settings)
+from spaceopt.studies.thrust_family import settings as thrust_family_settings
 
 check_section("perturbed", physical=lambda pc: (scan_run_dates(pc), e8_runs(pc), existence_runs(pc),
-                                                existence_bound_from(pc), case_start_models(pc)))
+                                                existence_bound_from(pc), case_start_models(pc),
+                                                thrust_family_settings(pc)))
 PT = config["perturbed"]
 PTDIR = f"{RESULTS}/perturbed"
 PT_SRC = lib_sources("indirect", "elements", "constants", "forces", "ephemeris", "frames", "artifacts",
@@ -353,7 +357,8 @@ rule perturbed_verify:
 def pt_verify_files():
     """The independent Cartesian re-propagation of every solve the tables take, and of the
     minimum-thrust solves of the existence check."""
-    return sorted({p.replace(".json", ".verify.json") for p in [*pt_stage_jsons().values(), *pt_existence_files()]})
+    return sorted({p.replace(".json", ".verify.json") for p in [*pt_stage_jsons().values(), *pt_existence_files(),
+                                                                 *TF_FILES]})
 
 
 # What each force contributes to the change of h and E along every perturbed solve of the listed
@@ -459,6 +464,38 @@ rule perturbed_existence_table:
     script: "../scripts/perturbed_existence_table.py"
 
 
+# The minimum-fuel family followed down in the thrust from the case's OT solution, per listed model:
+# what a weaker engine costs, and an upper bound on T_min below the existence check's
+# (spaceopt.studies.thrust_family; perturbed.thrust_family, absent: off)
+TF = thrust_family_settings(PT)
+TF_RUNS = [(c, m) for c, s in TF.items() for m in s["models"]]
+TF_FILES = [f"{PTDIR}/{c}/family_{m}.json" for c, m in TF_RUNS]
+TF_TABLE = [f"{PTDIR}/thrust_family.csv"] if TF_RUNS else []
+TF_FIGURES = [f"fig_{c}_thrust_family" for c in TF]
+TF_SRC = lib_sources("studies/thrust_family")
+
+
+rule perturbed_thrust_family:
+    input: src=PT_SRC + TF_SRC, eph=lambda w: pt_ephemeris(w.case, w.model),
+           ot=f"{PTDIR}/{{case}}/{{model}}.json"
+    output: pt_files("{case}/family_{model}")
+    wildcard_constraints: case="|".join(TF) or "none", model="|".join(sorted(PT["models"]))
+    params: cfg=lambda w: {**pt_config_for(w.case, w.model), "thrust_family": TF[w.case]},
+            family=lambda w: TF[w.case], case="{case}", model="{model}"
+    log: f"{PTDIR}/logs/{{case}}_family_{{model}}.log"
+    benchmark: f"{PTDIR}/benchmarks/{{case}}_family_{{model}}.tsv"
+    resources: mem_mb=4000, runtime=240
+    script: "../scripts/perturbed_thrust_family.py"
+
+
+rule perturbed_thrust_family_table:
+    input: family=TF_FILES, _src=lib_sources("studies/thrust_family", "studies/perturbed_figures", "report/figures")
+    output: table=f"{PTDIR}/thrust_family.csv",
+            figures=[f"{PTDIR}/figures/{f}.{ext}" for f in TF_FIGURES for ext in ("pdf", "png")]
+    log: f"{PTDIR}/logs/thrust_family.log"
+    script: "../scripts/perturbed_thrust_family_table.py"
+
+
 PT_TABLES = ["e5", "e6_date_scan", "e7", "e8", "e9"]
 
 rule perturbed_tables:
@@ -510,8 +547,10 @@ rule perturbed_paper_section:
            figures=[f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()],
            families=E6_FAMILIES, walks=E6_WALKS_CSV, envelope=E6_ENVELOPE, heavier=E6_HEAVIER, force_shares=FS_TABLE,
            force_shares_by_revolution=FS_BY_REVOLUTION, existence=EX_TABLE, **{t: f"{PTDIR}/{t}.csv" for t in PT_TABLES},
+           thrust_family=TF_TABLE, thrust_family_runs=TF_FILES,
+           family_figures=[f"{PTDIR}/figures/{f}.pdf" for f in TF_FIGURES],
            _src=lib_sources("studies/perturbed_report", "report/verification", "studies/scan_families",
-                            "studies/scan_walks", "studies/force_shares", "studies/existence")
+                            "studies/scan_walks", "studies/force_shares", "studies/existence", "studies/thrust_family")
     output: f"{PTDIR}/paper_section.tex"
     params: run=PT["run"], results=RESULTS, e8_count_start=e8_count_start(PT), e8_smoothing=e8_smoothing(PT),
             e6_skipped=config["perturbed"]["e6"].get("skip_dates") or [],
@@ -524,4 +563,4 @@ rule perturbed_paper_section:
 
 ALL_TARGETS += [f"{PTDIR}/{t}.csv" for t in PT_TABLES] + [
     f"{PTDIR}/reproduction.csv", f"{PTDIR}/paper_section.tex", f"{PTDIR}/e9_budget.json"] + [
-    f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()] + E6_FAMILIES + E6_ENVELOPE + E6_HEAVIER + FS_TABLE + FS_BY_REVOLUTION + EX_TABLE
+    f"{PTDIR}/figures/{f}.pdf" for f in pt_figure_names()] + E6_FAMILIES + E6_ENVELOPE + E6_HEAVIER + FS_TABLE + FS_BY_REVOLUTION + EX_TABLE + TF_TABLE

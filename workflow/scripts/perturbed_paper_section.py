@@ -10,6 +10,7 @@ from spaceopt.report.tables import read_csv as _read  # noqa: E402
 from spaceopt.studies import perturbed_report as R, scan_families as F, scan_walks as W  # noqa: E402
 from spaceopt.studies.existence import sentence as existence_sentence  # noqa: E402
 from spaceopt.studies.force_shares import shares_sentence  # noqa: E402
+from spaceopt.studies.thrust_family import sentence as family_sentence  # noqa: E402
 
 
 def main(sm):
@@ -25,7 +26,13 @@ def main(sm):
                                               sm.params.e6_links["mass_tol_kg"])
     if sm.input.heavier:
         families += " " + W.heavier_sentence(_read(sm.input.heavier[0]))
-    Path(sm.output[0]).write_text(R.paper_section(rows, {}, budget, e6sum, list(sm.input.figures),
+    existence = existence_sentence(_read(sm.input.existence[0]), R.MODEL_TEX) if sm.input.existence else ""
+    if sm.input.thrust_family:
+        stops = {(Path(p).parent.name, Path(p).stem.removeprefix("family_")):
+                 artifacts.read_json(p)["extra"]["family"]["stopped"] for p in sm.input.thrust_family_runs}
+        existence += " " + family_sentence(_read(sm.input.thrust_family[0]), stops, R.MODEL_TEX)
+    Path(sm.output[0]).write_text(R.paper_section(rows, {}, budget, e6sum,
+                                                  [*sm.input.figures, *sm.input.family_figures],
                                                   e8_count_start=sm.params.e8_count_start,
                                                   smoothing=sm.params.e8_smoothing,
                                                   e8_steps=sm.params.e8_steps,
@@ -37,8 +44,7 @@ def main(sm):
                                                       _read(sm.input.force_shares[0]), unp and unp["m_f_kg"],
                                                       _read(sm.input.force_shares_by_revolution[0]))
                                                   if sm.input.force_shares else "",
-                                                  existence=existence_sentence(_read(sm.input.existence[0]), R.MODEL_TEX)
-                                                  if sm.input.existence else ""))
+                                                  existence=existence.strip()))
 
 
 if __name__ == "__main__":

@@ -269,3 +269,37 @@ def fuel_vs_revs(rows: list, path, title="E8: propellant vs revolutions and vs �
     fig.tight_layout()
     save_figure(fig, path)
     plt.close(fig)
+
+
+MOON_DISTANCE_KM = 384_400.0     # the Moon's mean distance, for scale (Fig. e7_thrust_family)
+
+
+def thrust_family(rows: list, path, title: str):
+    """m_p, Δt, the largest apogee radius and the throttle's duty against the thrust along the
+    minimum-fuel families of one case (``thrust_family.csv``'s rows, one line per model; the
+    point at the OT's own ε, where it differs from the family's, open). The least thrust of each
+    line is an upper bound on T_min (:mod:`spaceopt.studies.thrust_family`)."""
+    keys = (("propellant_kg", "m_p, kg"), ("tof_days", "Δt, days"), ("max_apogee_km", "largest apogee, km"),
+            ("duty", "duty (m_p c / (T Δt))"))
+    fig, axes = plt.subplots(1, 4, figsize=(14, 3.6))
+    for model in dict.fromkeys(r["model"] for r in rows):
+        rs = [r for r in rows if r["model"] == model]
+        eps = rs[-1]["eps"]
+        on = sorted((r for r in rs if r["eps"] == eps), key=lambda r: r["thrust_N"])
+        off = [r for r in rs if r["eps"] != eps]
+        c = COLORS.get(model, "k")
+        for ax, (k, _) in zip(axes, keys):
+            ax.plot([r["thrust_N"] for r in on], [r[k] for r in on], "o-", color=c, ms=3,
+                    label=f"{model} (ε {eps:g})")
+            if off:
+                ax.plot([r["thrust_N"] for r in off], [r[k] for r in off], "o", mfc="none", color=c, ms=5)
+    axes[2].set_yscale("log")
+    axes[2].axhline(MOON_DISTANCE_KM, color="0.5", lw=0.8, ls=":")
+    axes[2].text(axes[2].get_xlim()[1], MOON_DISTANCE_KM, "Moon ", ha="right", va="bottom", fontsize=7, color="0.4")
+    for ax, (_, label) in zip(axes, keys):
+        ax.set_xlabel("thrust T, N")
+        ax.set_ylabel(label)
+    axes[0].legend(fontsize=7)
+    fig.suptitle(title + " (open: the OT at its own ε)")
+    fig.tight_layout()
+    save_figure(fig, path)

@@ -1,0 +1,168 @@
+"""A case's minimum-fuel family followed down in the thrust: what a weaker engine costs, and an
+upper bound on T_min (not in the dissertation; docs/perturbed-e6-e7-e8.md, sixty-third session).
+
+Each converged OT extremal of the smoothed problem (3.3.2) at thrust T and smoothing ε is a
+transfer over the case's fixed angular range with the throttle δ(S, ε) ∈ [0, 1], i.e. a thrust
+δT ≤ T all along. So T_min ≤ T at every thrust the family reaches, at any ε: this bound needs no
+minimum-thrust extremal. E7's minimum-thrust paths all fold (spec 01-methods §3.4's (3.4.1) homotopy
+from the LP, and the T_min → OT homotopy of ``spaceopt.indirect.tmin_from_ot`` near its start), so
+their bounds (``spaceopt.studies.existence``) stay loose; the family goes below them.
+
+The family starts from the case's OT solution under one force model (the DAG's artifact at ε_f),
+moves it to the family's ε (``chain.smoothing_to``; E7 at ε_f stops at 0.911 N, where its
+bang-bang structure changes), and continues it in the thrust through the listed values
+(``chain.continue_in_params``, arclength), every other datum fixed. The mass and the time of
+flight are free as in the OT problem, so as T falls the transfer takes longer, and (E7) buys
+its revolutions with ever higher apogees. The family stops at the first listed thrust it does not
+reach (a fold, a step-size underflow, the step limit ``max_steps``): the least thrust reached is
+the bound. Per point: m_f, the propellant, Δt, the largest osculating apogee radius and
+eccentricity, the least radius reached, and the duty (propellant over T·Δt/c: 1 for an engine on
+all the time), from the physical samples (``studies.trajectory.sample``).
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+from typing import TYPE_CHECKING, Callable
+
+import numpy as np
+
+from ..errors import ConfigError, ConvergenceError
+
+if TYPE_CHECKING:
+    from ..indirect.chain import Solution
+
+COLUMNS = ("case", "model", "thrust_N", "eps", "m_f_kg", "propellant_kg", "tof_days", "max_apogee_km", "max_e",
+           "least_radius_km", "duty", "steps", "jacobians", "wall_s")
+
+
+def settings(pc: dict) -> dict[str, dict]:
+    """{case: {thrusts_N, eps, models, max_steps}} of ``perturbed.thrust_family`` for the cases
+    that are run (eps default 1e-2, models default the case's first; the Snakefile plans with it).
+    ConfigError naming the key where a case is unknown, the thrusts do not fall strictly from
+    below the case's thrust to above 0, ε is not in (0, 1), a model is not one of the case's, or
+    max_steps is not a positive integer."""
+    from .multirev_config import number      # (loads JAX: not at import, for the report jobs)
+    out = {}
+    for case, s in (pc.get("thrust_family") or {}).items():
+        key = f"perturbed.thrust_family.{case}"
+        if case not in pc["cases"]:
+            raise ConfigError(key, case, f"not a case (expected one of {', '.join(pc['cases'])})")
+        if not isinstance(s, dict):
+            raise ConfigError(key, s, "must be a mapping with thrusts_N (and eps, models, max_steps)")
+        if case not in pc["run"]:
+            continue
+        thrust = float(pc["cases"][case]["thrust_N"])
+        listed = s.get("thrusts_N")
+        if not isinstance(listed, list) or not listed:
+            raise ConfigError(f"{key}.thrusts_N", listed, "must be a list of thrusts in N")
+        thrusts = [number({"thrusts_N": t}, "thrusts_N", key) for t in listed]
+        if not all(0 < b < a for a, b in zip([thrust, *thrusts], thrusts)):
+            raise ConfigError(f"{key}.thrusts_N", listed,
+                              f"must fall strictly from below the case's thrust ({thrust:g} N) to above 0")
+        eps = number({"eps": s.get("eps", 1e-2)}, "eps", key)
+        if not 0 < eps < 1:
+            raise ConfigError(f"{key}.eps", s.get("eps"), "the smoothing must lie in (0, 1)")
+        known = pc["cases"][case]["models"]
+        models = s.get("models", known[:1])
+        for m in models if isinstance(models, list) else [models]:
+            if not isinstance(models, list) or m not in known:
+                raise ConfigError(f"{key}.models", m, f"not a list of the case's models ({', '.join(known)})")
+        max_steps = s.get("max_steps", 2000)
+        if not isinstance(max_steps, int) or isinstance(max_steps, bool) or max_steps < 1:
+            raise ConfigError(f"{key}.max_steps", max_steps, "must be a positive integer")
+        out[case] = {"thrusts_N": thrusts, "eps": eps, "models": list(models), "max_steps": max_steps}
+    return out
+
+
+def at_thrust(sol: Solution, thrust_N: float, eps: float) -> Solution:
+    """``sol`` relabelled as the solution of its transfer at ``thrust_N`` and ε = ``eps`` (its
+    transfer then saves and loads as that problem, ``studies.multirev.load``)."""
+    tr = dataclasses.replace(sol.transfer, thrust=thrust_N, eps_final=eps)
+    return dataclasses.replace(sol, transfer=tr, thrust_N=thrust_N, prm={**sol.prm, **tr.params(thrust=thrust_N)})
+
+
+def describe(sol: Solution, samples_per_rev: int = 400) -> dict:
+    """m_f, propellant, Δt, the largest apogee radius and eccentricity, the least radius and the
+    duty of the OT solution ``sol`` (its thrust: ``sol.thrust_N``), from its physical samples."""
+    from .trajectory import sample
+    s, tr = sample(sol, samples_per_rev), sol.transfer
+    apogee_km = np.where(s["e"] < 1, s["a_m"] * (1 + s["e"]), np.inf) / 1e3
+    m_f, tof_s = float(s["mass_kg"][-1]), float(s["t_s"][-1])
+    return {"m_f_kg": m_f, "propellant_kg": tr.m0 - m_f, "tof_days": tof_s / 86400,
+            "max_apogee_km": float(apogee_km.max()), "max_e": float(s["e"].max()),
+            "least_radius_km": float(np.linalg.norm(s["r_m"], axis=1).min() / 1e3),
+            "duty": (tr.m0 - m_f) / (sol.thrust_N * tof_s / tr.c)}
+
+
+def follow(sol: Solution, thrusts_N: list, eps: float, options, label: str, points: list | None = None,
+           on_point: Callable[[Solution, list], None] | None = None) -> tuple[Solution, list, str]:
+    """The family of the OT solution ``sol`` down through ``thrusts_N`` at ε = ``eps``: (its last
+    solution, the points, the reason it stopped: '' where it reached the last thrust).
+
+    ``points``: those of an interrupted run that reached ``sol`` (its checkpoint); None for a new
+    family, whose first point is ``sol`` itself at its own ε, and whose second is ``sol`` moved
+    to ``eps`` where that differs. Each point (:func:`describe` plus the thrust, ε and the cost
+    of its path) is appended as it is reached, and the solution and all the points go to
+    ``on_point`` (a checkpoint). A step that does not arrive (``ConvergenceError``, also the move
+    in ε) is the stop, not raised: the least thrust reached stays the bound."""
+    from ..indirect import chain
+    points = list(points or [])
+
+    def reached(s: Solution, stats: dict, wall_s: float) -> None:
+        points.append({"thrust_N": s.thrust_N, "eps": float(s.prm["eps_final"]), **describe(s),
+                       "steps": stats.get("steps", 0), "jacobians": stats.get("jacobian_evaluations", 0),
+                       "wall_s": wall_s})
+        if on_point:
+            on_point(s, points)
+
+    if not points:
+        sol = at_thrust(sol, sol.thrust_N, float(sol.prm["eps_final"]))
+        reached(sol, {}, 0.0)
+    if not np.isclose(float(sol.prm["eps_final"]), eps, rtol=1e-12, atol=0):
+        t0 = time.perf_counter()
+        try:
+            moved = chain.smoothing_to(sol, eps, options, label=f"{label}/eps {eps:g}")
+        except ConvergenceError as exc:
+            return sol, points, f"eps {eps:g} not reached: {exc}"
+        sol = at_thrust(moved, sol.thrust_N, eps)
+        reached(sol, moved.stats, time.perf_counter() - t0)
+    for T in thrusts_N:
+        t0 = time.perf_counter()
+        try:
+            moved = chain.continue_in_params(sol, at_thrust(sol, T, eps).prm, options, label=f"{label}/T {T:g} N",
+                                             path="arclength")
+        except ConvergenceError as exc:
+            return sol, points, f"T {T:g} N not reached: {exc}"
+        sol = at_thrust(moved, T, eps)
+        reached(sol, moved.stats, time.perf_counter() - t0)
+    return sol, points, ""
+
+
+def rows(case: str, model: str, payload: dict) -> list[dict]:
+    """The table's rows of one family artifact (its ``extra['family']``)."""
+    return [{"case": case, "model": model, **{k: p[k] for k in COLUMNS[2:]}} for p in payload["extra"]["family"]["points"]]
+
+
+def sentence(rows: list, stops: dict, model_names: dict) -> str:
+    """LaTeX for the paper: per case and model the least thrust the family reached (an upper bound
+    on T_min), its m_f, Δt and largest apogee there, and why it stopped (``stops``: (case, model)
+    → reason). '' without rows."""
+    parts = []
+    for case in dict.fromkeys(r["case"] for r in rows):
+        items = []
+        for model in dict.fromkeys(r["model"] for r in rows if r["case"] == case):
+            rs = [r for r in rows if r["case"] == case and r["model"] == model]
+            last = min(rs, key=lambda r: float(r["thrust_N"]))
+            apogee = f"{float(last['max_apogee_km']):,.0f}".replace(",", "\\,")
+            items.append(f"{model_names.get(model, model)} $T_{{min}} \\le$ {float(last['thrust_N']):g}~N "
+                         f"($m_f$ {float(last['m_f_kg']):.1f}~kg, $\\Delta t$ {float(last['tof_days']):.1f}~d, "
+                         f"apogee up to {apogee}~km; "
+                         + ("the next thrust was not reached" if stops.get((case, model)) else "the last listed thrust")
+                         + ")")
+        eps = float(min((r for r in rows if r["case"] == case), key=lambda r: float(r["thrust_N"]))["eps"])
+        parts.append(f"{case.upper()}: " + "; ".join(items)
+                     + f" (the minimum-fuel family at $\\varepsilon = {eps:g}$ followed down in the thrust: every "
+                       "point of it is a transfer whose thrust never exceeds its $T$)")
+    return ("Followed down in the thrust, the minimum-fuel family gives upper bounds on $T_{min}$ of its own: "
+            + ". ".join(parts) + ".") if parts else ""

@@ -1,0 +1,88 @@
+"""The minimum-fuel family followed down in the thrust (spaceopt.studies.thrust_family): E1
+(2 revolutions) under J2 from its 15 N OT extremal (conftest), moved to ε 1e-2 and on to 14 N,
+then a thrust far below its T_min that the family cannot reach."""
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from spaceopt.indirect.continuation import ContinuationOptions
+from spaceopt.indirect.shooting import residual
+from spaceopt.studies import perturbed as P, thrust_family as TF
+from spaceopt.studies.perturbed_report import MODEL_TEX
+from spaceopt.studies.trajectory import sample
+
+
+def _norm_f(sol, prm) -> float:
+    """|f| of the OT problem with data ``prm`` at the unknowns of ``sol``."""
+    f, ok = residual(sol.shooting, jnp.asarray(sol.z), 1.0, prm)
+    assert bool(ok)
+    return float(np.linalg.norm(f))
+
+
+@pytest.fixture(scope="module")
+def family(e1_j2_ot):
+    """follow() through 14 N and 0.5 N (30 steps a path at most), with every checkpoint kept."""
+    seen = []
+    last, points, stop = TF.follow(e1_j2_ot, [14.0, 0.5], 1e-2, ContinuationOptions(max_steps=30, verbose=False),
+                                   "e1 family", on_point=lambda s, pts: seen.append((s, [dict(p) for p in pts])))
+    return last, points, stop, seen
+
+
+def test_each_point_solves_the_ot_problem_at_its_thrust_and_eps(family, e1_j2_ot):
+    """The start at its own ε, the same extremal at the family's ε, then 14 N: each a root of the
+    OT problem with that thrust and ε (the residual of its own data, not the path's), written
+    to the checkpoint as it was reached."""
+    last, points, stop, seen = family
+    assert [(p["thrust_N"], p["eps"]) for p in points] == [(15.0, 1e-5), (15.0, 1e-2), (14.0, 1e-2)]
+    assert [len(pts) for _, pts in seen] == [1, 2, 3] and seen[-1][1] == points
+    assert e1_j2_ot.prm["eps_final"] == 1e-5                     # the start is not changed
+    for sol, pts in seen:
+        assert sol.transfer.thrust == sol.thrust_N == pts[-1]["thrust_N"]
+        assert sol.transfer.eps_final == sol.prm["eps_final"] == pts[-1]["eps"]
+        assert _norm_f(sol, sol.transfer.params(thrust=sol.thrust_N)) < 1e-8
+    assert last is seen[-1][0]
+    assert points[1]["m_f_kg"] < points[0]["m_f_kg"]             # the smoothing costs propellant
+
+
+def test_a_point_is_a_transfer_whose_thrust_never_exceeds_its_own(family):
+    """The bound's premise: the throttle lies in [0, 1], so |thrust| ≤ T all along, and the
+    duty m_p c / (T Δt) is at most 1; the described scalars are those of the samples."""
+    last, points, _, _ = family
+    s = sample(last, 200)
+    assert np.max(np.linalg.norm(s["thrust_N"], axis=1)) <= 14.0 * (1 + 1e-12)
+    assert 0 < points[-1]["duty"] <= 1 and points[-1]["least_radius_km"] > 6378
+    assert points[-1]["tof_days"] == pytest.approx(s["t_s"][-1] / 86400, rel=1e-12)
+    assert points[-1]["propellant_kg"] == pytest.approx(last.transfer.m0 - s["mass_kg"][-1], rel=1e-12)
+    assert points[-1]["max_apogee_km"] >= np.max(np.linalg.norm(s["r_m"], axis=1)) / 1e3 * (1 - 1e-9)
+
+
+def test_a_thrust_not_reached_stops_the_family_without_losing_it(family):
+    last, points, stop, _ = family
+    assert stop.startswith("T 0.5 N not reached") and last.thrust_N == 14.0 and len(points) == 3
+
+
+def test_a_point_saved_and_loaded_resumes_as_the_same_problem(family, tmp_path):
+    """The DAG's checkpoint and artifact: saved and loaded, the 14 N point at ε 1e-2 is the same
+    root of the same problem, and the family resumed from it starts at once (no ε move)."""
+    last, points, _, _ = family
+    P.save(last, tmp_path / "point.json", {"test": 1}, 0.0, {"family": {"points": points}}, samples_per_rev=20)
+    back = P.load(tmp_path / "point.json")
+    assert (back.thrust_N, back.prm["eps_final"]) == (14.0, 1e-2)
+    np.testing.assert_allclose(back.z, last.z, rtol=0, atol=0)
+    assert _norm_f(back, back.prm) < 1e-8
+    again, pts, stop = TF.follow(back, [], 1e-2, None, "resume", points)
+    assert again is back and pts == points and stop == ""
+
+
+def test_the_rows_and_the_sentence_name_each_bound_and_its_stop():
+    pts = [{"thrust_N": t, "eps": e, "m_f_kg": m, "propellant_kg": 1000 - m, "tof_days": d, "max_apogee_km": a,
+            "max_e": 0.9, "least_radius_km": 6871.0, "duty": 0.99, "steps": 3, "jacobians": 5, "wall_s": 1.0}
+           for t, e, m, d, a in ((1.0, 1e-5, 850.3, 88.1, 75000.0), (1.0, 1e-2, 846.5, 87.9, 75339.0),
+                                 (0.3, 1e-2, 668.273, 192.39, 535422.0))]
+    rows = TF.rows("e7", "unperturbed", {"extra": {"family": {"points": pts}}})
+    assert list(rows[0]) == list(TF.COLUMNS) and [r["thrust_N"] for r in rows] == [1.0, 1.0, 0.3]
+    j2 = [{**r, "model": "j2", "thrust_N": r["thrust_N"] + 0.01} for r in rows]
+    text = TF.sentence(rows + j2, {("e7", "unperturbed"): "", ("e7", "j2"): "T 0.3 N not reached: fold"}, MODEL_TEX)
+    assert "unperturbed $T_{min} \\le$ 0.3~N ($m_f$ 668.3~kg, $\\Delta t$ 192.4~d, apogee up to 535\\,422~km" in text
+    assert f"{MODEL_TEX['j2']} $T_{{min}} \\le$ 0.31~N" in text and "the next thrust was not reached" in text
+    assert TF.sentence([], {}, MODEL_TEX) == ""

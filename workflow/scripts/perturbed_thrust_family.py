@@ -1,0 +1,56 @@
+"""One case's minimum-fuel family under one force model, followed down in the thrust from the case's
+OT artifact (spaceopt.studies.thrust_family): the artifact of its least-thrust point, with every
+point in its extra. A family that stops short is a result (the stop is recorded), not a failure.
+Each point reached is checkpointed next to the output, under the config's hash, and an
+interrupted run resumes from the last one (its paths, too, from their last accepted step)."""
+import shutil
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))
+from _step import checkpoint_dir, run_step  # noqa: E402
+
+from spaceopt import artifacts  # noqa: E402
+from spaceopt.indirect.continuation import ContinuationOptions  # noqa: E402
+from spaceopt.studies import perturbed as P, thrust_family as TF  # noqa: E402
+
+
+def main(sm):
+    cfg, case, model, fam = sm.params.cfg, sm.params.case, sm.params.model, sm.params.family
+    out = Path(sm.output[0])
+    label = f"{case}/family_{model}"
+    ckdir = checkpoint_dir(out, cfg)
+    point = ckdir / "point.json"
+    t0 = time.perf_counter()
+    resumed = point.exists() and artifacts.read_json(point)["extra"]["family"]
+    if resumed:
+        sol, points, before = P.load(point), resumed["points"], resumed["wall_s"]
+        print(f"[{label}] resumed at {sol.thrust_N:g} N from {point}", file=sys.stderr, flush=True)
+    else:
+        sol, points, before = P.load(sm.input.ot), None, 0.0
+    options = ContinuationOptions(max_steps=fam["max_steps"], checkpoint_dir=str(ckdir))
+
+    def record(pts, stop=""):
+        return {"family": {"points": pts, "stopped": stop, "eps": fam["eps"], "thrusts_N": fam["thrusts_N"],
+                           "wall_s": time.perf_counter() - t0 + before}}
+
+    def checkpoint(s, pts):
+        P.save(s, point, cfg, time.perf_counter() - t0 + before, record(pts), samples_per_rev=20)
+        print(f"[{label}] T {s.thrust_N:g} N, eps {pts[-1]['eps']:g}: m_f {pts[-1]['m_f_kg']:.3f} kg, "
+              f"dt {pts[-1]['tof_days']:.3f} d, apogee {pts[-1]['max_apogee_km']:.0f} km, "
+              f"duty {pts[-1]['duty']:.4f} ({pts[-1]['wall_s']:.0f} s)", file=sys.stderr, flush=True)
+
+    below = [T for T in fam["thrusts_N"] if T < sol.thrust_N * (1 - 1e-12)]
+    last, points, stop = TF.follow(sol, below, fam["eps"], options, label, points, checkpoint)
+    if stop:
+        print(f"[{label}] stopped: {stop}", file=sys.stderr, flush=True)
+    P.save(last, out, cfg, time.perf_counter() - t0 + before, record(points, stop),
+           samples_per_rev=cfg["numerics"]["samples_per_rev"])
+    shutil.rmtree(out.with_suffix(".checkpoints"), ignore_errors=True)
+
+
+if __name__ == "__main__":
+    with open(snakemake.log[0], "w") as log:  # noqa: F821
+        sys.stderr = log
+        run_step(main, snakemake)  # noqa: F821
