@@ -6,12 +6,9 @@ the script runs; after the script's ``with`` block closes the log it would be lo
 console gets one line that says where to look.
 """
 import os
-import shutil
 import sys
 import traceback
-from pathlib import Path
 
-from spaceopt import artifacts
 from spaceopt.errors import SpaceoptError
 from spaceopt.config import THREADS_ENV
 
@@ -34,13 +31,3 @@ def run_step(main, *args, **kwargs):
         print(f"error: internal error {type(exc).__name__}: {exc} (traceback in the rule's log)",
               file=sys.__stderr__, flush=True)
         sys.exit(1)
-
-
-def checkpoint_dir(out: Path, cfg: dict) -> Path:
-    """``<output>.checkpoints/<config hash>``; checkpoints of other configs are removed."""
-    root = out.with_suffix(".checkpoints")
-    here = root / artifacts.config_hash(cfg)[:16]
-    for other in root.glob("*"):
-        if other != here:
-            shutil.rmtree(other, ignore_errors=True)
-    return here

@@ -6,13 +6,23 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _step import checkpoint_dir, run_step  # noqa: E402
+from _step import run_step  # noqa: E402
 
 from spaceopt import artifacts  # noqa: E402
 from spaceopt.errors import ConvergenceError  # noqa: E402
 from spaceopt.indirect.continuation import resumed_wall_time  # noqa: E402
 from spaceopt.studies import perturbed as P  # noqa: E402
 from spaceopt.studies import perturbed_config as C  # noqa: E402
+
+
+def checkpoint_dir(out: Path, cfg: dict) -> Path:
+    """``<output>.checkpoints/<config hash>``; checkpoints of other configs are removed."""
+    root = out.with_suffix(".checkpoints")
+    here = root / artifacts.config_hash(cfg)[:16]
+    for other in root.glob("*"):
+        if other != here:
+            shutil.rmtree(other, ignore_errors=True)
+    return here
 
 
 def solve(sm, cfg, case, model, tr, label, warm_kw, fail):

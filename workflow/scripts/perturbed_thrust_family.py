@@ -9,7 +9,8 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _step import checkpoint_dir, run_step  # noqa: E402
+from _step import run_step  # noqa: E402
+from perturbed_solve import checkpoint_dir  # noqa: E402  (the solves' checkpoints, as theirs)
 
 from spaceopt import artifacts  # noqa: E402
 from spaceopt.indirect.continuation import ContinuationOptions  # noqa: E402
