@@ -82,7 +82,10 @@ def test_the_rows_and_the_sentence_name_each_bound_and_its_stop():
     rows = TF.rows("e7", "unperturbed", {"extra": {"family": {"points": pts}}})
     assert list(rows[0]) == list(TF.COLUMNS) and [r["thrust_N"] for r in rows] == [1.0, 1.0, 0.3]
     j2 = [{**r, "model": "j2", "thrust_N": r["thrust_N"] + 0.01} for r in rows]
-    text = TF.sentence(rows + j2, {("e7", "unperturbed"): "", ("e7", "j2"): "T 0.3 N not reached: fold"}, MODEL_TEX)
-    assert "unperturbed $T_{min} \\le$ 0.3~N ($m_f$ 668.3~kg, $\\Delta t$ 192.4~d, apogee up to 535\\,422~km" in text
+    checked = {("e7", "unperturbed"): {"T_min_N": 0.309072, "T_min_is": "upper bound"}}
+    text = TF.sentence(rows + j2, {("e7", "unperturbed"): "", ("e7", "j2"): "T 0.3 N not reached: fold"}, MODEL_TEX,
+                       checked)
+    assert ("unperturbed $T_{min} \\le$ 0.3~N ($m_f$ 668.3~kg, $\\Delta t$ 192.4~d, apogee up to 535\\,422~km; "
+            "the last listed thrust; the check above: $\\le$ 0.3091~N)") in text
     assert f"{MODEL_TEX['j2']} $T_{{min}} \\le$ 0.31~N" in text and "the next thrust was not reached" in text
     assert TF.sentence([], {}, MODEL_TEX) == ""

@@ -26,11 +26,13 @@ def main(sm):
                                               sm.params.e6_links["mass_tol_kg"])
     if sm.input.heavier:
         families += " " + W.heavier_sentence(_read(sm.input.heavier[0]))
-    existence = existence_sentence(_read(sm.input.existence[0]), R.MODEL_TEX) if sm.input.existence else ""
+    checked = _read(sm.input.existence[0]) if sm.input.existence else []
+    existence = existence_sentence(checked, R.MODEL_TEX) if checked else ""
     if sm.input.thrust_family:
         stops = {(Path(p).parent.name, Path(p).stem.removeprefix("family_")):
                  artifacts.read_json(p)["extra"]["family"]["stopped"] for p in sm.input.thrust_family_runs}
-        existence += " " + family_sentence(_read(sm.input.thrust_family[0]), stops, R.MODEL_TEX)
+        existence += " " + family_sentence(_read(sm.input.thrust_family[0]), stops, R.MODEL_TEX,
+                                           {(r["case"], r["model"]): r for r in checked})
     Path(sm.output[0]).write_text(R.paper_section(rows, {}, budget, e6sum,
                                                   [*sm.input.figures, *sm.input.family_figures],
                                                   e8_count_start=sm.params.e8_count_start,

@@ -144,10 +144,11 @@ def rows(case: str, model: str, payload: dict) -> list[dict]:
     return [{"case": case, "model": model, **{k: p[k] for k in COLUMNS[2:]}} for p in payload["extra"]["family"]["points"]]
 
 
-def sentence(rows: list, stops: dict, model_names: dict) -> str:
+def sentence(rows: list, stops: dict, model_names: dict, checked: dict | None = None) -> str:
     """LaTeX for the paper: per case and model the least thrust the family reached (an upper bound
-    on T_min), its m_f, Δt and largest apogee there, and why it stopped (``stops``: (case, model)
-    → reason). '' without rows."""
+    on T_min), its m_f, Δt and largest apogee there, whether it stopped short (``stops``: (case,
+    model) → reason, '' where it reached its last thrust), and the existence check's T_min or bound
+    beside it (``checked``: (case, model) → the ``existence.csv`` row). '' without rows."""
     parts = []
     for case in dict.fromkeys(r["case"] for r in rows):
         items = []
@@ -155,11 +156,14 @@ def sentence(rows: list, stops: dict, model_names: dict) -> str:
             rs = [r for r in rows if r["case"] == case and r["model"] == model]
             last = min(rs, key=lambda r: float(r["thrust_N"]))
             apogee = f"{float(last['max_apogee_km']):,.0f}".replace(",", "\\,")
+            check = (checked or {}).get((case, model))
+            le = "$\\le$ " if check is not None and check["T_min_is"] == "upper bound" else ""
+            beside = "" if check is None else f"; the check above: {le}{float(check['T_min_N']):.4g}~N"
             items.append(f"{model_names.get(model, model)} $T_{{min}} \\le$ {float(last['thrust_N']):g}~N "
                          f"($m_f$ {float(last['m_f_kg']):.1f}~kg, $\\Delta t$ {float(last['tof_days']):.1f}~d, "
                          f"apogee up to {apogee}~km; "
                          + ("the next thrust was not reached" if stops.get((case, model)) else "the last listed thrust")
-                         + ")")
+                         + beside + ")")
         eps = float(min((r for r in rows if r["case"] == case), key=lambda r: float(r["thrust_N"]))["eps"])
         parts.append(f"{case.upper()}: " + "; ".join(items)
                      + f" (the minimum-fuel family at $\\varepsilon = {eps:g}$ followed down in the thrust: every "
