@@ -7,7 +7,9 @@ where the throttle becomes always on. Below the thrust at which the OT extremal'
 everywhere, each OT extremal of the family is a transfer with the engine always on, so the family
 continued down in the thrust bounds T_min from above at every point it reaches. Where a regular
 minimum-thrust extremal exists the family folds in the thrust there (two always-on branches, the
-shortest and the longest transfer, merge at T_min).
+shortest and the longest transfer, merge at T_min). Since the sixty-fourth session the DAG follows
+E7's family itself (``perturbed.thrust_family``, ``spaceopt.studies.thrust_family``, which this
+script now calls for the continuation and the per-point scalars).
 
   family N T0,T1,… [EPS [MODEL]]
                      the OT at N revolutions and thrust T0 (LP → OT blend, W_ref 1, arclength),
@@ -17,11 +19,14 @@ shortest and the longest transfer, merge at T_min).
                      Δt, the largest apogee radius and eccentricity on the way, the least radius
                      the trajectory reaches (its own, sampled 400 times a revolution), and the
                      throttle's duty (propellant over T·Δt/c: 1 for an engine always on)
+  below PATH T1,T2,… the family continued on down from a saved point at its ε (the DAG's
+                     results/perturbed/e7/family_<model>.json: its least-thrust point)
   bound N T0         the OT at N revolutions and thrust T0, then the DAG's bound
                      (``tmin_from_ot.solve_tmin_from_ot``) from it
 
     .venv/bin/python docs/experiments/e7_thrust_family.py family 2 60,35,26,21,18.5,17.6,17,16,15,14.9,14.85
     .venv/bin/python docs/experiments/e7_thrust_family.py bound 2 60
+    .venv/bin/python docs/experiments/e7_thrust_family.py below results/perturbed/e7/family_unperturbed.json 0.298,0.296
     .venv/bin/python docs/experiments/e7_thrust_family.py family 100 1,0.8,0.6,0.5,0.45,0.4,0.37,0.35,0.33,0.32,0.31,0.3 1e-2
     .venv/bin/python docs/experiments/e7_thrust_family.py family 100 1,0.6,0.45,0.37,0.33,0.32,0.31 1e-2 j2
 
@@ -34,7 +39,6 @@ import sys
 import time
 
 import jax
-import numpy as np
 import yaml
 
 jax.config.update("jax_enable_x64", True)
@@ -43,23 +47,17 @@ from spaceopt.indirect import chain  # noqa: E402
 from spaceopt.indirect.continuation import ContinuationOptions  # noqa: E402
 from spaceopt.indirect.tmin_from_ot import solve_tmin_from_ot  # noqa: E402
 from spaceopt.studies import perturbed as P  # noqa: E402
-from spaceopt.studies.trajectory import sample  # noqa: E402
+from spaceopt.studies import thrust_family as TF  # noqa: E402
 
 QUIET = ContinuationOptions(verbose=False)
 PC = yaml.safe_load(open("config/studies/perturbed.yaml"))["perturbed"]
 E7 = P.transfer_from_config(PC, "e7", "unperturbed")
 
 
-def describe(sol, thrust_N):
-    """m_f, Δt, the largest apogee radius and eccentricity, the least radius reached and the
-    throttle's duty of ``sol``, from its physical samples (``studies.trajectory.sample``)."""
-    s = sample(sol, 400)
-    apogee_km = np.where(s["e"] < 1, s["a_m"] * (1 + s["e"]), np.inf) / 1e3
-    m_f, dt_s = s["mass_kg"][-1], s["t_s"][-1]
-    duty = (sol.transfer.m0 - m_f) / (thrust_N * dt_s / sol.transfer.c)
-    return (f"m_f {m_f:.3f} kg, dt {dt_s / 86400:.4f} d, max apogee {apogee_km.max():.0f} km, "
-            f"max e {s['e'].max():.4f}, least radius {np.linalg.norm(s['r_m'], axis=1).min() / 1e3:.0f} km, "
-            f"duty {duty:.4f}")
+def show(sol, point):
+    print(f"T={point['thrust_N']:g} N, eps {point['eps']:g}: m_f {point['m_f_kg']:.3f} kg, dt {point['tof_days']:.4f} d, "
+          f"max apogee {point['max_apogee_km']:.0f} km, max e {point['max_e']:.4f}, least radius "
+          f"{point['least_radius_km']:.0f} km, duty {point['duty']:.4f} ({point['wall_s']:.0f} s)", flush=True)
 
 
 def ot_at(n_rev, thrust_N):
@@ -68,28 +66,27 @@ def ot_at(n_rev, thrust_N):
     return ot
 
 
+def follow(sol, thrusts, eps, label):
+    _, _, stop = TF.follow(sol, thrusts, eps, QUIET, label, on_point=lambda s, pts: show(s, pts[-1]))
+    if stop:
+        print(f"stopped: {stop}", flush=True)
+
+
 def family(n_rev, thrusts, eps=None, model="unperturbed"):
     n_rev, thrusts = float(n_rev), [float(x) for x in thrusts.split(",")]
-    t = time.time()
     sol = ot_at(n_rev, thrusts[0])
-    if eps is not None:
-        sol = chain.smoothing_to(sol, float(eps), QUIET, label=f"eps {eps}")
+    eps = float(sol.prm["eps_final"]) if eps is None else float(eps)
     if model != "unperturbed":       # switched on at the family's ε, which it keeps (E7's DAG: at 1e-2)
+        sol = TF.at_thrust(chain.smoothing_to(sol, eps, QUIET), thrusts[0], eps)
         tr = dataclasses.replace(P.transfer_from_config(PC, "e7", model), n_rev=n_rev, thrust=thrusts[0],
-                                 eps_final=float(sol.prm["eps_final"]))
+                                 eps_final=eps)
         sol = P.perturb_from_unperturbed(sol, tr, f"{model} on", options=QUIET)
-    print(f"T={thrusts[0]:g} N: {describe(sol, thrusts[0])} ({time.time() - t:.0f} s)", flush=True)
-    for T in thrusts[1:]:
-        t = time.time()
-        tr = dataclasses.replace(sol.transfer, thrust=T)
-        try:
-            prm = {**tr.params(thrust=T), "eps_final": sol.prm["eps_final"]}     # at the family's ε
-            sol = dataclasses.replace(chain.continue_in_params(sol, prm, QUIET, label=f"T {T:g}", path="arclength"),
-                                      transfer=tr, thrust_N=T)
-        except ConvergenceError as exc:
-            print(f"T={T:g} N: stopped ({exc}) ({time.time() - t:.0f} s)", flush=True)
-            return
-        print(f"T={T:g} N: {describe(sol, T)} ({time.time() - t:.0f} s)", flush=True)
+    follow(sol, thrusts[1:], eps, f"n {n_rev:g}")
+
+
+def below(path, thrusts):
+    sol = P.load(path)
+    follow(sol, [float(x) for x in thrusts.split(",")], float(sol.prm["eps_final"]), "below")
 
 
 def bound(n_rev, thrust_N):
@@ -101,8 +98,8 @@ def bound(n_rev, thrust_N):
         print(f"tmin_from_ot: failed ({exc}) ({time.time() - t:.0f} s)", flush=True)
         return
     print(f"tmin_from_ot: T {b.thrust_N:.6f} N at tau {b.tau:.3g} (bound: {bool(b.extra.get('bound'))}), "
-          f"{describe(b, b.thrust_N)} ({time.time() - t:.0f} s)", flush=True)
+          f"{TF.describe(b)} ({time.time() - t:.0f} s)", flush=True)
 
 
 if __name__ == "__main__":
-    {"family": family, "bound": bound}[sys.argv[1]](*sys.argv[2:])
+    {"family": family, "below": below, "bound": bound}[sys.argv[1]](*sys.argv[2:])
