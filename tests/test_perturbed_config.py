@@ -1268,7 +1268,8 @@ def test_the_verification_sentence_states_the_worst_errors_and_the_perturbation_
     assert "minimum-thrust" not in text
     probed = verification_sentence([row, {**row, "final_position_vs_solver_km": 400.0, "thrust_probe_relative": 1e-7,
                                           "final_position_moved_by_thrust_probe_km": 800.0}], "trajectories")
-    assert "at most 400~km" in probed and "For the minimum-thrust ones among them (1;" in probed
+    assert "at most 400~km" in probed and ("For the minimum-thrust ones among them and the least-thrust points of the thrust "
+                                               "families (1;") in probed
     assert "by $10^{-7}$ (relative) moves the end point by 800 to 800~km" in probed
     assert "farthest from the solver's end point (400~km) is one whose end point that change moves by 800~km" in probed
 

@@ -7,7 +7,7 @@ import pytest
 
 from spaceopt.indirect.continuation import ContinuationOptions
 from spaceopt.indirect.shooting import residual
-from spaceopt.studies import perturbed as P, thrust_family as TF
+from spaceopt.studies import perturbed as P, thrust_family as TF, verify
 from spaceopt.studies.perturbed_report import MODEL_TEX
 from spaceopt.studies.trajectory import sample
 
@@ -72,6 +72,18 @@ def test_a_point_saved_and_loaded_resumes_as_the_same_problem(family, tmp_path):
     assert _norm_f(back, back.prm) < 1e-8
     again, pts, stop = TF.follow(back, [], 1e-2, None, "resume", points)
     assert again is back and pts == points and stop == ""
+
+
+def test_the_verifier_replays_a_family_point_and_probes_its_thrust(family, tmp_path):
+    """The DAG re-propagates each family's least-thrust point (studies.verify): with the recorded
+    throttle it lands on the solver's end point, and, as on a minimum-thrust trajectory, the
+    thrust probe says how sensitive that end point is."""
+    last, points, _, _ = family
+    P.save(last, tmp_path / "family_j2.json", {"test": 1}, 0.0, {"family": {"points": points}})
+    check = verify.verify_ot(tmp_path / "family_j2.json")
+    assert check["success"] and check["final_position_vs_solver_km"] < 1.0
+    assert abs(check["final_mass_error_kg"]) < 1e-3
+    assert check["thrust_probe_relative"] == verify.THRUST_PROBE and check["final_position_moved_by_thrust_probe_km"] > 0
 
 
 def test_the_rows_and_the_sentence_name_each_bound_and_its_stop():

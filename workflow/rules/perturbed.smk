@@ -333,11 +333,12 @@ def pt_stage_jsons():
 
 
 def pt_verify_samples(w):
-    """The E6 dates and the minimum-thrust solves are re-sampled from their unknowns for the check
-    (perturbed.e6.verify_samples_per_rev, perturbed.existence.verify_samples_per_rev)."""
+    """The E6 dates, the minimum-thrust solves and the thrust families' points are re-sampled from
+    their unknowns for the check (perturbed.e6.verify_samples_per_rev,
+    perturbed.existence.verify_samples_per_rev)."""
     if w.solve.startswith("e6/"):
         return E6.get("verify_samples_per_rev")
-    if "/tmin_" in w.solve:
+    if "/tmin_" in w.solve or "/family_" in w.solve:      # (the families' least-thrust points: engines all but always on)
         return (PT.get("existence") or {}).get("verify_samples_per_rev")
     return None
 

@@ -59,8 +59,9 @@ def verification_sentence(rows: list[dict], what: str) -> str:
     if probed:
         moved = lambda v: float(v["final_position_moved_by_thrust_probe_km"])      # noqa: E731
         far = max(probed, key=lambda v: float(v["final_position_vs_solver_km"]))
-        text += (f" For the minimum-thrust ones among them ({len(probed)}; always on, with the least thrust that "
-                 f"makes the transfer, or an upper bound on it) a thrust changed by "
+        text += (f" For the minimum-thrust ones among them and the least-thrust points of the thrust families "
+                 f"({len(probed)}; with the engine always or nearly always on, at or near the least thrust that "
+                 f"makes the transfer) a thrust changed by "
                  f"$10^{{{round(math.log10(float(probed[0]['thrust_probe_relative'])))}}}$ (relative) moves the end point by "
                  f"{min(map(moved, probed)):.3g} to {max(map(moved, probed)):.3g}~km; the one farthest from the "
                  f"solver's end point ({float(far['final_position_vs_solver_km']):.3g}~km) is one whose end point "
