@@ -21,6 +21,9 @@ script now calls for the continuation and the per-point scalars).
                      throttle's duty (propellant over T·Δt/c: 1 for an engine always on)
   below PATH T1,T2,… the family continued on down from a saved point at its ε (the DAG's
                      results/perturbed/e7/family_<model>.json: its least-thrust point)
+  model PATH MODEL   that saved point carried to the force model MODEL at its thrust and ε by
+                     the model blend (``chain.continue_in_model``; run where results/ has E7's
+                     ephemeris window)
   bound N T0         the OT at N revolutions and thrust T0, then the DAG's bound
                      (``tmin_from_ot.solve_tmin_from_ot``) from it
 
@@ -89,6 +92,23 @@ def below(path, thrusts):
     follow(sol, [float(x) for x in thrusts.split(",")], float(sol.prm["eps_final"]), "below")
 
 
+def model(path, name):
+    """The family point saved at ``path`` carried to the force model ``name`` at its thrust and ε by
+    the model blend (``chain.continue_in_model``, arclength)."""
+    sol = P.load(path)
+    T, eps = sol.thrust_N, float(sol.prm["eps_final"])
+    tr = P.transfer_from_config(PC, "e7", name, ephemeris=P.ephemeris_path("results", PC["cases"]["e7"]["ephemeris"]))
+    tr = dataclasses.replace(tr, thrust=T, eps_final=eps)
+    t = time.time()
+    try:
+        moved = chain.continue_in_model(sol, tr.params(thrust=T), QUIET, label=f"to {name}", path="arclength")
+    except ConvergenceError as exc:
+        print(f"{name} at {T:g} N: failed ({exc}) ({time.time() - t:.0f} s)", flush=True)
+        return
+    moved = TF.at_thrust(dataclasses.replace(moved, transfer=tr), T, eps)
+    show(moved, {"thrust_N": T, "eps": eps, **TF.describe(moved), "wall_s": time.time() - t})
+
+
 def bound(n_rev, thrust_N):
     ot = ot_at(float(n_rev), float(thrust_N))
     t = time.time()
@@ -102,4 +122,4 @@ def bound(n_rev, thrust_N):
 
 
 if __name__ == "__main__":
-    {"family": family, "below": below, "bound": bound}[sys.argv[1]](*sys.argv[2:])
+    {"family": family, "below": below, "model": model, "bound": bound}[sys.argv[1]](*sys.argv[2:])
