@@ -75,12 +75,13 @@ def test_a_point_saved_and_loaded_resumes_as_the_same_problem(family, tmp_path):
 
 
 def test_the_verifier_replays_a_family_point_and_probes_its_thrust(family, tmp_path):
-    """The DAG re-propagates each family's least-thrust point (studies.verify): with the recorded
-    throttle it lands on the solver's end point, and, as on a minimum-thrust trajectory, the
-    thrust probe says how sensitive that end point is."""
+    """The DAG re-propagates each family's least-thrust point (studies.verify), re-sampled from its
+    unknowns: with the recorded throttle it lands on the solver's end point, and, as on a
+    minimum-thrust trajectory, the thrust probe says how sensitive that end point is."""
     last, points, _, _ = family
-    P.save(last, tmp_path / "family_j2.json", {"test": 1}, 0.0, {"family": {"points": points}})
-    check = verify.verify_ot(tmp_path / "family_j2.json")
+    P.save(last, tmp_path / "family_j2.json", {"test": 1}, 0.0, {"family": {"points": points}}, samples_per_rev=20)
+    (tmp_path / "fine").mkdir()
+    check = verify.verify_ot(verify.resampled(tmp_path / "family_j2.json", tmp_path / "fine", 400))   # as the DAG
     assert check["success"] and check["final_position_vs_solver_km"] < 1.0
     assert abs(check["final_mass_error_kg"]) < 1e-3
     assert check["thrust_probe_relative"] == verify.THRUST_PROBE and check["final_position_moved_by_thrust_probe_km"] > 0

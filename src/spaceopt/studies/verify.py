@@ -131,10 +131,11 @@ def verify_ot(json_path, rtol=1e-11, atol_m=1e-3) -> dict:
 def resampled(json_path, out_dir, samples_per_rev: int) -> Path:
     """The artifact saved again in ``out_dir`` with ``samples_per_rev`` samples per revolution:
     its solution rebuilt from the unknowns z by the solver (the same extremal, sampled finer; the
-    NPZ is the solver's flow in any case), so that the samples do not limit the check's resolution."""
+    NPZ is the solver's flow in any case), so that the samples do not limit the check's resolution.
+    The artifact's extra is kept (a thrust family's marks its point for the thrust probe)."""
     from . import perturbed as P
     out = Path(out_dir) / Path(json_path).name
-    P.save(P.load(json_path), out, {}, 0.0, samples_per_rev=samples_per_rev)
+    P.save(P.load(json_path), out, {}, 0.0, artifacts.read_json(json_path).get("extra"), samples_per_rev=samples_per_rev)
     return out
 
 
