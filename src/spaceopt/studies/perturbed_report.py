@@ -59,7 +59,7 @@ FIGURE_CAPTIONS = {
     "fig_4_2_3_2": "E9: controls and elements of the second force model",
     "fig_e6_force_shares": "E6: each force's share of the change of angular momentum against the departure "
                            "date, and the final mass against the Moon's share (not in the dissertation)",
-    "fig_e7_thrust_family": "E7: the minimum-fuel family followed down in the thrust from the case's, per force model: "
+    "fig_e7_thrust_family": "E7: the minimum-fuel family followed down from the case's thrust, per force model: "
                             "propellant, time of flight, largest apogee and duty; each line's least thrust is an "
                             "upper bound on the minimum thrust (not in the dissertation)",
 }

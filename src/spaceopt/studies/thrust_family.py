@@ -1,12 +1,14 @@
 """A case's minimum-fuel family followed down in the thrust: what a weaker engine costs, and an
-upper bound on T_min (not in the dissertation; docs/perturbed-e6-e7-e8.md, sixty-third session).
+upper bound on T_min (not in the dissertation; docs/perturbed-e6-e7-e8.md, sixty-third and sixty-fourth
+sessions).
 
 Each converged OT extremal of the smoothed problem (3.3.2) at thrust T and smoothing ε is a
 transfer over the case's fixed angular range with the throttle δ(S, ε) ∈ [0, 1], i.e. a thrust
 δT ≤ T all along. So T_min ≤ T at every thrust the family reaches, at any ε: this bound needs no
 minimum-thrust extremal. E7's minimum-thrust paths all fold (spec 01-methods §3.4's (3.4.1) homotopy
 from the LP, and the T_min → OT homotopy of ``spaceopt.indirect.tmin_from_ot`` near its start), so
-their bounds (``spaceopt.studies.existence``) stay loose; the family goes below them.
+their bounds (``spaceopt.studies.existence``) stay loose; the family can go below them (E7
+unperturbed and J2: 0.30 N against 0.3091 and 0.3110 N; the full model's stops at 0.8 N).
 
 The family starts from the case's OT solution under one force model (the DAG's artifact at ε_f),
 moves it to the family's ε (``chain.smoothing_to``; E7 at ε_f stops at 0.911 N, where its
