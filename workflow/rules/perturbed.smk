@@ -482,7 +482,7 @@ rule perturbed_thrust_family:
     output: pt_files("{case}/family_{model}")
     wildcard_constraints: case="|".join(TF) or "none", model="|".join(sorted(PT["models"]))
     params: cfg=lambda w: {**pt_config_for(w.case, w.model), "thrust_family": TF[w.case]},
-            family=lambda w: TF[w.case], case="{case}", model="{model}"
+            case="{case}", model="{model}"
     log: f"{PTDIR}/logs/{{case}}_family_{{model}}.log"
     benchmark: f"{PTDIR}/benchmarks/{{case}}_family_{{model}}.tsv"
     resources: mem_mb=4000, runtime=240

@@ -18,7 +18,8 @@ from spaceopt.studies import perturbed as P, thrust_family as TF  # noqa: E402
 
 
 def main(sm):
-    cfg, case, model, fam = sm.params.cfg, sm.params.case, sm.params.model, sm.params.family
+    cfg, case, model = sm.params.cfg, sm.params.case, sm.params.model
+    fam = cfg["thrust_family"]
     out = Path(sm.output[0])
     label = f"{case}/family_{model}"
     ckdir = checkpoint_dir(out, cfg)
