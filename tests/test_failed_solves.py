@@ -58,6 +58,8 @@ def test_the_paper_names_each_failure_with_its_reason():
     assert "E8 g44 at 450 revolutions (starts from j2 at 450 revolutions, which failed)" in text
     assert FS.failures_sentence({}, {}) == ""
     assert "the minimum thrust of E7 j2 (fold)" in FS.failures_sentence({}, {}, {("e7", "j2"): "fold"})
+    assert "the E7 g44_moon_sun thrust family carried from j2's (fold)" in FS.failures_sentence(
+        {}, {}, family={("e7", "g44_moon_sun", "j2"): "fold"})
 
 
 def test_the_paper_section_carries_the_failures_escaped_for_latex():

@@ -1520,8 +1520,9 @@ def test_the_thrust_family_settings_are_read_and_each_bad_one_is_one_line():
     assert list(tf) == ["e7"] and tf["e7"]["thrusts_N"][-1] < tf["e7"]["thrusts_N"][0] < PC["cases"]["e7"]["thrust_N"]
     assert tf["e7"]["models"] == ["unperturbed", "j2", "g44_moon_sun"] and isinstance(tf["e7"]["max_steps"], int)
     assert TF.settings({**PC, "run": ["e9"]}) == {}
+    assert tf["e7"]["carry_from"] == {"g44_moon_sun": "j2"}
     assert TF.settings({**PC, "thrust_family": {"e7": {"thrusts_N": [0.5]}}}) == {
-        "e7": {"thrusts_N": [0.5], "eps": 1e-2, "models": ["unperturbed"], "max_steps": 2000}}
+        "e7": {"thrusts_N": [0.5], "eps": 1e-2, "models": ["unperturbed"], "max_steps": 2000, "carry_from": {}}}
     for family, match in (({"e10": {"thrusts_N": [0.5]}}, r"thrust_family.e10='e10'.*not a case"),
                           ({"e7": [0.5]}, r"thrust_family.e7=\[0.5\].*mapping"),
                           ({"e7": {"thrusts_N": 0.5}}, r"thrust_family.e7.thrusts_N=0.5.*list"),
@@ -1531,7 +1532,14 @@ def test_the_thrust_family_settings_are_read_and_each_bad_one_is_one_line():
                           ({"e7": {"thrusts_N": [0.5, 0.0]}}, r"thrusts_N=.*to above 0"),
                           ({"e7": {"thrusts_N": [0.5], "eps": 1.5}}, r"thrust_family.e7.eps=1.5.*\(0, 1\)"),
                           ({"e7": {"thrusts_N": [0.5], "models": ["g44"]}}, r"thrust_family.e7.models='g44'"),
-                          ({"e7": {"thrusts_N": [0.5], "max_steps": 0}}, r"thrust_family.e7.max_steps=0.*positive")):
+                          ({"e7": {"thrusts_N": [0.5], "max_steps": 0}}, r"thrust_family.e7.max_steps=0.*positive"),
+                          ({"e7": {"thrusts_N": [0.5], "carry_from": ["j2"]}}, r"thrust_family.e7.carry_from=\['j2'\].*mapping"),
+                          ({"e7": {"thrusts_N": [0.5], "models": ["j2"], "carry_from": {"g45": "j2"}}},
+                           r"thrust_family.e7.carry_from='g45'.*the case's models"),
+                          ({"e7": {"thrusts_N": [0.5], "models": ["j2"], "carry_from": {"g44_moon_sun": "unperturbed"}}},
+                           r"thrust_family.e7.carry_from.g44_moon_sun='unperturbed'.*another of the family's models"),
+                          ({"e7": {"thrusts_N": [0.5], "models": ["j2"], "carry_from": {"j2": "j2"}}},
+                           r"thrust_family.e7.carry_from.j2='j2'")):
         with pytest.raises(ConfigError, match=match) as exc:
             TF.settings({**PC, "thrust_family": family})
         assert "\n" not in str(exc.value)

@@ -1,6 +1,10 @@
 """The minimum-fuel family followed down in the thrust (spaceopt.studies.thrust_family): E1
 (2 revolutions) under J2 from its 15 N OT extremal (conftest), moved to ε 1e-2 and on to 14 N,
-then a thrust far below its T_min that the family cannot reach."""
+then a thrust far below its T_min that the family cannot reach; and its 14 N point carried to
+the 2×2 geopotential on the Earth rotation angle (conftest's e1_g22_era model, whose OT programs
+the cache shares) and followed on down from there."""
+import dataclasses
+
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -10,6 +14,8 @@ from spaceopt.indirect.shooting import residual
 from spaceopt.studies import perturbed as P, thrust_family as TF, verify
 from spaceopt.studies.perturbed_report import MODEL_TEX
 from spaceopt.studies.trajectory import sample
+
+G22_ERA = {"geopotential": {"degree": 2, "order": 2}, "earth_angle": "era"}
 
 
 def _norm_f(sol, prm) -> float:
@@ -87,18 +93,47 @@ def test_the_verifier_replays_a_family_point_and_probes_its_thrust(family, tmp_p
     assert check["thrust_probe_relative"] == verify.THRUST_PROBE and check["final_position_moved_by_thrust_probe_km"] > 0
 
 
+@pytest.fixture(scope="module")
+def carried(family, e1_j2_ot):
+    """The family's 14 N point (ε 1e-2, J2) carried to 2×2 on the ERA, then on down to 13.9 N."""
+    last = family[0]
+    target = dataclasses.replace(e1_j2_ot.transfer, perturbations=G22_ERA, thrust=99.0, eps_final=1e-5)
+    options = ContinuationOptions(max_steps=30, verbose=False)
+    first = TF.carry(last, target, options, "carry")
+    return last, first, TF.follow(first, [13.9], 1e-2, options, "carried", [TF.point(first, first.stats, 0.0)])
+
+
+def test_a_point_carried_to_another_model_solves_that_models_problem(carried):
+    """The carried point keeps the seed's thrust and ε (not the target transfer's), is a root of
+    the OT problem under the target model and not under the seed's, and the family goes on from
+    it as from any point."""
+    seed, first, (last, points, stop) = carried
+    assert (first.thrust_N, first.prm["eps_final"]) == (14.0, 1e-2) == (first.transfer.thrust, first.transfer.eps_final)
+    assert first.transfer.perturbations == G22_ERA and first.stats["steps"] > 0
+    assert _norm_f(first, first.transfer.params(thrust=14.0)) < 1e-8
+    assert _norm_f(first, dataclasses.replace(first.transfer, perturbations=seed.transfer.perturbations).params(
+        thrust=14.0)) > 1e-6
+    assert stop == "" and [p["thrust_N"] for p in points] == [14.0, 13.9] and last.thrust_N == 13.9
+    assert _norm_f(last, last.transfer.params(thrust=13.9)) < 1e-8
+    assert abs(points[0]["m_f_kg"] - TF.describe(seed)["m_f_kg"]) < 1.0          # 2×2 is a small change
+
+
 def test_the_rows_and_the_sentence_name_each_bound_and_its_stop():
     pts = [{"thrust_N": t, "eps": e, "m_f_kg": m, "propellant_kg": 1000 - m, "tof_days": d, "max_apogee_km": a,
             "max_e": 0.9, "least_radius_km": 6871.0, "duty": 0.99, "steps": 3, "jacobians": 5, "wall_s": 1.0}
            for t, e, m, d, a in ((1.0, 1e-5, 850.3, 88.1, 75000.0), (1.0, 1e-2, 846.5, 87.9, 75339.0),
                                  (0.3, 1e-2, 668.273, 192.39, 535422.0))]
-    rows = TF.rows("e7", "unperturbed", {"extra": {"family": {"points": pts}}})
+    rows = TF.rows("e7", {"extra": {"family": {"model": "unperturbed", "start": "ot", "points": pts}}})
     assert list(rows[0]) == list(TF.COLUMNS) and [r["thrust_N"] for r in rows] == [1.0, 1.0, 0.3]
     j2 = [{**r, "model": "j2", "thrust_N": r["thrust_N"] + 0.01} for r in rows]
+    full = [{**rows[-1], "model": "g44_moon_sun", "start": "family_j2", "thrust_N": 0.31, "m_f_kg": 670.9}]
     checked = {("e7", "unperturbed"): {"T_min_N": 0.309072, "T_min_is": "upper bound"}}
-    text = TF.sentence(rows + j2, {("e7", "unperturbed"): "", ("e7", "j2"): "T 0.3 N not reached: fold"}, MODEL_TEX,
-                       checked)
+    stops = {("e7", "unperturbed", "ot"): "", ("e7", "j2", "ot"): "T 0.3 N not reached: fold",
+             ("e7", "g44_moon_sun", "family_j2"): ""}
+    text = TF.sentence(rows + j2 + full, stops, MODEL_TEX, checked)
     assert ("unperturbed $T_{min} \\le$ 0.3~N ($m_f$ 668.3~kg, $\\Delta t$ 192.4~d, apogee up to 535\\,422~km; "
             "the last listed thrust; the check above: $\\le$ 0.3091~N)") in text
     assert f"{MODEL_TEX['j2']} $T_{{min}} \\le$ 0.31~N" in text and "the next thrust was not reached" in text
+    assert (f"{MODEL_TEX['g44_moon_sun']} (carried from the {MODEL_TEX['j2']} family at 0.31~N) $T_{{min}} \\le$ 0.31~N "
+            "($m_f$ 670.9~kg") in text
     assert TF.sentence([], {}, MODEL_TEX) == ""

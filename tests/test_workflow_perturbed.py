@@ -165,7 +165,7 @@ def test_the_report_pass_leaves_out_the_failed_solves_and_those_that_start_from_
     planned again, nor the solves that start from them (E6: start_from; E8: the later models at
     that count), and the tables and paper are planned without them. Without the variable they
     are planned as usual."""
-    for stem in ("e6/2021-05-17", "e8/j2_n450", "e9/tmin_g44", "e7/tmin_j2"):
+    for stem in ("e6/2021-05-17", "e8/j2_n450", "e9/tmin_g44", "e7/tmin_j2", "e7/family_g44_moon_sun_from_j2"):
         path = tmp_path / "perturbed" / f"{stem}.failure.json"
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text('{"error": "no convergence (test)"}')
@@ -176,6 +176,7 @@ def test_the_report_pass_leaves_out_the_failed_solves_and_those_that_start_from_
     assert f"{tmp_path}/perturbed/e6/2021-05-18.json" in planned_inputs(out, "perturbed_e6_date")
     assert f"{tmp_path}/perturbed/e8/g44_n450.json" in planned_inputs(out, "perturbed_e8")
     assert f"{tmp_path}/perturbed/e9/tmin_g44.json" in planned_inputs(out, "perturbed_existence")
+    assert planned_rules(out)["perturbed_thrust_family_carried"] == 1
     monkeypatch.setenv("SPACEOPT_REPORT_FAILED", "1")
     rc, out = smk(*args)
     assert rc == 0, out[-2000:]
@@ -195,6 +196,10 @@ def test_the_report_pass_leaves_out_the_failed_solves_and_those_that_start_from_
     assert not {f"{tmp_path}/perturbed/e7/tmin_{m}.json" for m in ("j2", "g44_moon_sun")} & set(planned)
     assert not any(i.endswith("/e9/tmin_g44.json") for i in planned_inputs(out, "perturbed_existence_table")[
         f"{tmp_path}/perturbed/existence.csv"])
+    assert "perturbed_thrust_family_carried" not in planned_rules(out)        # the carried family (E7 full model)
+    family = planned_inputs(out, "perturbed_thrust_family_table")[f"{tmp_path}/perturbed/thrust_family.csv"]
+    assert f"{tmp_path}/perturbed/e7/family_g44_moon_sun.json" in family
+    assert not any("_from_" in i for i in family)
 
 
 def test_the_e7_existence_check_starts_from_the_e7_ot_solves():
@@ -213,6 +218,25 @@ def test_the_e7_existence_check_starts_from_the_e7_ot_solves():
                    for i in jobs["results/perturbed/e9/tmin_j2.json"]), jobs["results/perturbed/e9/tmin_j2.json"]
     table = planned_inputs(out, "perturbed_existence_table")["results/perturbed/existence.csv"]
     assert "results/perturbed/e7/tmin_unperturbed.json" in table
+
+
+def test_the_e7_full_models_family_is_also_carried_from_the_j2_familys_point():
+    """thrust_family.carry_from {g44_moon_sun: j2}: besides its own family from its OT, the full
+    model gets one that starts from the J2 family's artifact (not an OT), with the ephemeris; the
+    table and the paper take both."""
+    rc, out = smk("-n", "--forceall", "--cores", "2", "results/perturbed/paper_section.tex")
+    assert rc == 0, out[-2000:]
+    carried = planned_inputs(out, "perturbed_thrust_family_carried")["results/perturbed/e7/family_g44_moon_sun_from_j2.json"]
+    assert "results/perturbed/e7/family_j2.json" in carried and "results/ephemeris/may2021_e7.json" in carried
+    assert not any(i.endswith("/e7/g44_moon_sun.json") for i in carried)
+    own = planned_inputs(out, "perturbed_thrust_family")
+    assert "results/perturbed/e7/g44_moon_sun.json" in own["results/perturbed/e7/family_g44_moon_sun.json"]
+    table = planned_inputs(out, "perturbed_thrust_family_table")["results/perturbed/thrust_family.csv"]
+    assert {f"results/perturbed/e7/family_{s}.json" for s in ("j2", "g44_moon_sun", "g44_moon_sun_from_j2")} <= set(table)
+    paper = planned_inputs(out, "perturbed_paper_section")["results/perturbed/paper_section.tex"]
+    assert "results/perturbed/e7/family_g44_moon_sun_from_j2.json" in paper
+    assert "results/perturbed/e7/family_g44_moon_sun_from_j2.verify.json" in planned_inputs(out, "perturbed_tables")[
+        "results/perturbed/e5.csv"]
 
 
 def test_e8_s_full_model_starts_from_j2_or_by_the_smoothed_profile_from_4x4_and_a_bad_model_from_is_one_line(tmp_path):

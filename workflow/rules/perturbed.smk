@@ -134,11 +134,11 @@ def pt_e8_source(n, model):
 
 
 # The second pass of ./dev reproduce (environment SPACEOPT_REPORT_FAILED=1) leaves out the E6 dates,
-# the E8 solves (and, below, the minimum-thrust solves) that failed in the first, with the solves
+# the E8 solves (and, below, the minimum-thrust solves and the carried families) that failed in the first, with the solves
 # that start from them, so that the tables, figures and paper are built from what converged
 # (spaceopt.studies.failed_solves).
 REPORT_FAILED = os.environ.get("SPACEOPT_REPORT_FAILED") == "1"
-PT_FAILED = {"e6": {}, "e8": {}, "existence": {}}
+PT_FAILED = {"e6": {}, "e8": {}, "existence": {}, "family": {}}
 if REPORT_FAILED:
     _scan_days = {d[:10] for d in scan_dates(PT["e6"])}
     PT_FAILED |= {
@@ -466,11 +466,22 @@ rule perturbed_existence_table:
 
 
 # The minimum-fuel family followed down in the thrust from the case's OT solution, per listed model:
-# what a weaker engine costs, and an upper bound on T_min below the existence check's
+# what a weaker engine costs, and an upper bound on T_min below the existence check's; and, per
+# carry_from entry, a model's family started from another model's least-thrust point carried to it
 # (spaceopt.studies.thrust_family; perturbed.thrust_family, absent: off)
 TF = thrust_family_settings(PT)
-TF_RUNS = [(c, m) for c, s in TF.items() for m in s["models"]]
-TF_FILES = [f"{PTDIR}/{c}/family_{m}.json" for c, m in TF_RUNS]
+TF_RUNS = [(c, m, "") for c, s in TF.items() for m in s["models"]] + [
+    (c, m, seed) for c, s in TF.items() for m, seed in s["carry_from"].items()]
+
+
+def tf_file(case, model, seed=""):
+    return f"{PTDIR}/{case}/family_{model}" + (f"_from_{seed}" if seed else "") + ".json"
+
+
+if REPORT_FAILED:        # the report pass: a carried family whose carry failed is left out (failed_solves)
+    PT_FAILED["family"] = left_out([r for r in TF_RUNS if r[2]], lambda r: None, lambda r: diagnosis(tf_file(*r)),
+                                   lambda r: tf_file(*r))
+TF_FILES = [tf_file(*r) for r in TF_RUNS if r not in PT_FAILED["family"]]
 TF_TABLE = [f"{PTDIR}/thrust_family.csv"] if TF_RUNS else []
 TF_FIGURES = [f"fig_{c}_thrust_family" for c in TF]
 TF_SRC = lib_sources("studies/thrust_family")
@@ -482,11 +493,23 @@ rule perturbed_thrust_family:
     output: pt_files("{case}/family_{model}")
     wildcard_constraints: case="|".join(TF) or "none", model="|".join(sorted(PT["models"]))
     params: cfg=lambda w: {**pt_config_for(w.case, w.model), "thrust_family": TF[w.case]},
-            case="{case}", model="{model}"
+            case="{case}", model="{model}", seed="", results=RESULTS
     log: f"{PTDIR}/logs/{{case}}_family_{{model}}.log"
     benchmark: f"{PTDIR}/benchmarks/{{case}}_family_{{model}}.tsv"
     resources: mem_mb=4000, runtime=240
     script: "../scripts/perturbed_thrust_family.py"
+
+
+use rule perturbed_thrust_family as perturbed_thrust_family_carried with:
+    input: src=PT_SRC + TF_SRC, eph=lambda w: pt_ephemeris(w.case, w.model),
+           seed=f"{PTDIR}/{{case}}/family_{{seed}}.json"
+    output: pt_files("{case}/family_{model}_from_{seed}")
+    wildcard_constraints: case="|".join(TF) or "none", model="|".join(sorted(PT["models"])),
+                          seed="|".join(sorted(PT["models"]))
+    params: cfg=lambda w: {**pt_config_for(w.case, w.model), "thrust_family": TF[w.case]},
+            case="{case}", model="{model}", seed="{seed}", results=RESULTS
+    log: f"{PTDIR}/logs/{{case}}_family_{{model}}_from_{{seed}}.log"
+    benchmark: f"{PTDIR}/benchmarks/{{case}}_family_{{model}}_from_{{seed}}.tsv"
 
 
 rule perturbed_thrust_family_table:

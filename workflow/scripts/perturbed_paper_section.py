@@ -29,8 +29,8 @@ def main(sm):
     checked = _read(sm.input.existence[0]) if sm.input.existence else []
     existence = existence_sentence(checked, R.MODEL_TEX) if checked else ""
     if sm.input.thrust_family:
-        stops = {(Path(p).parent.name, Path(p).stem.removeprefix("family_")):
-                 artifacts.read_json(p)["extra"]["family"]["stopped"] for p in sm.input.thrust_family_runs}
+        stops = {(Path(p).parent.name, f["model"], f["start"]): f["stopped"] for p in sm.input.thrust_family_runs
+                 for f in [artifacts.read_json(p)["extra"]["family"]]}
         existence += " " + family_sentence(_read(sm.input.thrust_family[0]), stops, R.MODEL_TEX,
                                            {(r["case"], r["model"]): r for r in checked})
     Path(sm.output[0]).write_text(R.paper_section(rows, {}, budget, e6sum,

@@ -1,8 +1,10 @@
 """One case's minimum-fuel family under one force model, followed down in the thrust from the case's
-OT artifact (spaceopt.studies.thrust_family): the artifact of its least-thrust point, with every
-point in its extra. A family that stops short is a result (the stop is recorded), not a failure.
-Each point reached is checkpointed next to the output, under the config's hash, and an
-interrupted run resumes from the last one (its paths, too, from their last accepted step)."""
+OT artifact, or (input ``seed``) from another model's family's least-thrust point carried to this
+model (spaceopt.studies.thrust_family): the artifact of its least-thrust point, with every point in
+its extra. A family that stops short is a result (the stop is recorded), not a failure; a carry
+that does not arrive writes its diagnosis (<stem>.failure.json) and fails the job. Each point
+reached is checkpointed next to the output, under the config's hash, and an interrupted run
+resumes from the last one (its paths, too, from their last accepted step)."""
 import shutil
 import sys
 import time
@@ -13,29 +15,26 @@ from _step import run_step  # noqa: E402
 from perturbed_solve import checkpoint_dir  # noqa: E402  (the solves' checkpoints, as theirs)
 
 from spaceopt import artifacts  # noqa: E402
-from spaceopt.indirect.continuation import ContinuationOptions  # noqa: E402
+from spaceopt.errors import ConvergenceError  # noqa: E402
+from spaceopt.indirect.continuation import ContinuationOptions, resumed_wall_time  # noqa: E402
 from spaceopt.studies import perturbed as P, thrust_family as TF  # noqa: E402
 
 
 def main(sm):
-    cfg, case, model = sm.params.cfg, sm.params.case, sm.params.model
+    cfg, case, model, seed = sm.params.cfg, sm.params.case, sm.params.model, sm.params.seed
     fam = cfg["thrust_family"]
     out = Path(sm.output[0])
-    label = f"{case}/family_{model}"
+    label = f"{case}/{out.stem}"
+    start = f"family_{seed}" if seed else "ot"
     ckdir = checkpoint_dir(out, cfg)
     point = ckdir / "point.json"
-    t0 = time.perf_counter()
-    resumed = point.exists() and artifacts.read_json(point)["extra"]["family"]
-    if resumed:
-        sol, points, before = P.load(point), resumed["points"], resumed["wall_s"]
-        print(f"[{label}] resumed at {sol.thrust_N:g} N from {point}", file=sys.stderr, flush=True)
-    else:
-        sol, points, before = P.load(sm.input.ot), None, 0.0
     options = ContinuationOptions(max_steps=fam["max_steps"], checkpoint_dir=str(ckdir))
+    t0 = time.perf_counter()
+    artifacts.clear_failures(out)
 
     def record(pts, stop=""):
-        return {"family": {"points": pts, "stopped": stop, "eps": fam["eps"], "thrusts_N": fam["thrusts_N"],
-                           "wall_s": time.perf_counter() - t0 + before}}
+        return {"family": {"model": model, "start": start, "points": pts, "stopped": stop, "eps": fam["eps"],
+                           "thrusts_N": fam["thrusts_N"], "wall_s": time.perf_counter() - t0 + before}}
 
     def checkpoint(s, pts):
         P.save(s, point, cfg, time.perf_counter() - t0 + before, record(pts), samples_per_rev=20)
@@ -43,6 +42,23 @@ def main(sm):
               f"dt {pts[-1]['tof_days']:.3f} d, apogee {pts[-1]['max_apogee_km']:.0f} km, "
               f"duty {pts[-1]['duty']:.4f} ({pts[-1]['wall_s']:.0f} s)", file=sys.stderr, flush=True)
 
+    resumed = point.exists() and artifacts.read_json(point)["extra"]["family"]
+    if resumed:
+        sol, points, before = P.load(point), resumed["points"], resumed["wall_s"]
+        print(f"[{label}] resumed at {sol.thrust_N:g} N from {point}", file=sys.stderr, flush=True)
+    elif seed:
+        tr = P.transfer_from_config(cfg, case, model, ephemeris=P.ephemeris_path(sm.params.results,
+                                                                               cfg["cases"][case]["ephemeris"]))
+        try:
+            sol = TF.carry(P.load(sm.input.seed), tr, options, f"{label}/carry")
+        except ConvergenceError as exc:
+            artifacts.write_failure(artifacts.failure_path(out), exc, cfg, time.perf_counter() - t0)
+            raise
+        before = resumed_wall_time(sol.stats)          # an interrupted carry's earlier runs
+        points = [TF.point(sol, sol.stats, time.perf_counter() - t0 + before)]
+        checkpoint(sol, points)
+    else:
+        sol, points, before = P.load(sm.input.ot), None, 0.0
     below = [T for T in fam["thrusts_N"] if T < sol.thrust_N * (1 - 1e-12)]
     last, points, stop = TF.follow(sol, below, fam["eps"], options, label, points, checkpoint)
     if stop:

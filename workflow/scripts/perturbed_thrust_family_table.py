@@ -1,5 +1,6 @@
 """results/perturbed/thrust_family.csv and one figure per case: the minimum-fuel families followed
-down in the thrust (spaceopt.studies.thrust_family), every point of every listed model."""
+down in the thrust (spaceopt.studies.thrust_family), every point of every listed model's family and
+of every carried one."""
 import sys
 from pathlib import Path
 
@@ -12,8 +13,7 @@ from spaceopt.studies import perturbed_figures as F, thrust_family as TF  # noqa
 
 
 def main(sm):
-    rows = [r for p in sm.input.family
-            for r in TF.rows(Path(p).parent.name, Path(p).stem.removeprefix("family_"), artifacts.read_json(p))]
+    rows = [r for p in sm.input.family for r in TF.rows(Path(p).parent.name, artifacts.read_json(p))]
     write_csv(sm.output.table, rows, TF.COLUMNS)
     for case in dict.fromkeys(r["case"] for r in rows):
         F.thrust_family([r for r in rows if r["case"] == case],

@@ -14,7 +14,8 @@ then built from what converged, the paper names each failure with its diagnosis,
 ``./dev reproduce`` still exits non-zero. The next ``./dev reproduce`` (without the flag) retries
 the failed solves.
 
-The minimum-thrust solves of the existence check (:mod:`spaceopt.studies.existence`) are left
+The minimum-thrust solves of the existence check (:mod:`spaceopt.studies.existence`) and the
+thrust families carried from another model's (:mod:`spaceopt.studies.thrust_family`) are left
 out the same way. Not covered: the E5, E7 and E9 solves (their tables take every model of the
 case, and dropping a model from the case would change the params of its other solves) and the
 other studies; a failure there still holds the report back.
@@ -70,12 +71,14 @@ def without_failed(pc: dict, e6: dict, e8: dict) -> dict:
     return {**pc, "e6": {**pc["e6"], "skip_dates": skip_dates}, "e8": {**pc["e8"], "skip_n_rev": skip_n_rev}}
 
 
-def failures_sentence(e6: dict, e8: dict, existence: dict | None = None) -> str:
+def failures_sentence(e6: dict, e8: dict, existence: dict | None = None, family: dict | None = None) -> str:
     """Plain text for the paper: what failed in this run and was left out, with the reasons
-    (``existence``: {(case, model): reason} of the minimum-thrust check)."""
+    (``existence``: {(case, model): reason} of the minimum-thrust check; ``family``: {(case,
+    model, seed): reason} of the thrust families carried from another model's)."""
     items = [f"E6 {d} ({why})" for d, why in sorted(e6.items())]
     items += [f"E8 {m} at {n:g} revolutions ({why})" for (m, n), why in sorted(e8.items())]
     items += [f"the minimum thrust of {c.upper()} {m} ({why})" for (c, m), why in sorted((existence or {}).items())]
+    items += [f"the {c.upper()} {m} thrust family carried from {s}'s ({why})" for (c, m, s), why in sorted((family or {}).items())]
     if not items:
         return ""
     return ("Failed in this run and left out of the tables and figures (each diagnosis is in the "

@@ -276,21 +276,24 @@ MOON_DISTANCE_KM = 384_400.0     # the Moon's mean distance, for scale (Fig. e7_
 
 def thrust_family(rows: list, path, title: str):
     """m_p, Δt, the largest apogee radius and the throttle's duty against the thrust along the
-    minimum-fuel families of one case (``thrust_family.csv``'s rows, one line per model; the
-    point at the OT's own ε, where it differs from the family's, open). The least thrust of each
-    line is an upper bound on T_min (:mod:`spaceopt.studies.thrust_family`)."""
+    minimum-fuel families of one case (``thrust_family.csv``'s rows, one line per model and
+    start; a family carried from another model's, squares; the point at the OT's own ε, where it
+    differs from the family's, open). The least thrust of each line is an upper bound on T_min
+    (:mod:`spaceopt.studies.thrust_family`)."""
     keys = (("propellant_kg", "m_p, kg"), ("tof_days", "Δt, days"), ("max_apogee_km", "largest apogee, km"),
             ("duty", "duty (m_p c / (T Δt))"))
     fig, axes = plt.subplots(1, 4, figsize=(14, 3.6))
-    for model in dict.fromkeys(r["model"] for r in rows):
-        rs = [r for r in rows if r["model"] == model]
+    for model, start in dict.fromkeys((r["model"], r["start"]) for r in rows):
+        rs = [r for r in rows if (r["model"], r["start"]) == (model, start)]
         eps = rs[-1]["eps"]
         on = sorted((r for r in rs if r["eps"] == eps), key=lambda r: r["thrust_N"])
         off = [r for r in rs if r["eps"] != eps]
         c = COLORS.get(model, "k")
+        carried = start != "ot"
+        label = f"{model}" + (f" from {start.removeprefix('family_')}'s family" if carried else "") + f" (ε {eps:g})"
         for ax, (k, _) in zip(axes, keys):
-            ax.plot([r["thrust_N"] for r in on], [r[k] for r in on], "o-", color=c, ms=3,
-                    label=f"{model} (ε {eps:g})")
+            ax.plot([r["thrust_N"] for r in on], [r[k] for r in on], "s--" if carried else "o-", color=c,
+                    ms=6 if carried else 3, mfc="none" if carried else c, label=label)
             if off:
                 ax.plot([r["thrust_N"] for r in off], [r[k] for r in off], "o", mfc="none", color=c, ms=5)
     axes[2].set_yscale("log")

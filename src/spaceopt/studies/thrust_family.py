@@ -20,6 +20,13 @@ reach (a fold, a step-size underflow, the step limit ``max_steps``): the least t
 the bound. Per point: m_f, the propellant, Δt, the largest osculating apogee radius and
 eccentricity, the least radius reached, and the duty (propellant over T·Δt/c: 1 for an engine on
 all the time), from the physical samples (``studies.trajectory.sample``).
+
+A family may also start from another model's family (``carry_from``, :func:`carry`): that
+family's least-thrust point is carried to this model at its thrust and ε by the force-model
+blend, then followed on down through the listed thrusts below it. E7: the full model's own
+family stops at 0.8 N (step-size underflow near 0.728 N, cause not found; sixty-fourth session),
+while the J2 family's 0.30 N point carried to the full model converges, so the bound holds
+there too.
 """
 from __future__ import annotations
 
@@ -33,17 +40,19 @@ from ..errors import ConfigError, ConvergenceError
 
 if TYPE_CHECKING:
     from ..indirect.chain import Solution
+    from ..indirect.transfer import Transfer
 
-COLUMNS = ("case", "model", "thrust_N", "eps", "m_f_kg", "propellant_kg", "tof_days", "max_apogee_km", "max_e",
+COLUMNS = ("case", "model", "start", "thrust_N", "eps", "m_f_kg", "propellant_kg", "tof_days", "max_apogee_km", "max_e",
            "least_radius_km", "duty", "steps", "jacobians", "wall_s")
 
 
 def settings(pc: dict) -> dict[str, dict]:
-    """{case: {thrusts_N, eps, models, max_steps}} of ``perturbed.thrust_family`` for the cases
-    that are run (eps default 1e-2, models default the case's first; the Snakefile plans with it).
-    ConfigError naming the key where a case is unknown, the thrusts do not fall strictly from
-    below the case's thrust to above 0, ε is not in (0, 1), a model is not one of the case's, or
-    max_steps is not a positive integer."""
+    """{case: {thrusts_N, eps, models, max_steps, carry_from}} of ``perturbed.thrust_family`` for
+    the cases that are run (eps default 1e-2, models default the case's first, carry_from default
+    none; the Snakefile plans with it). ConfigError naming the key where a case is unknown, the
+    thrusts do not fall strictly from below the case's thrust to above 0, ε is not in (0, 1), a
+    model is not one of the case's, max_steps is not a positive integer, or carry_from is not a
+    mapping {model of the case: another model of the family}."""
     from .multirev_config import number      # (loads JAX: not at import, for the report jobs)
     out = {}
     for case, s in (pc.get("thrust_family") or {}).items():
@@ -73,7 +82,16 @@ def settings(pc: dict) -> dict[str, dict]:
         max_steps = s.get("max_steps", 2000)
         if not isinstance(max_steps, int) or isinstance(max_steps, bool) or max_steps < 1:
             raise ConfigError(f"{key}.max_steps", max_steps, "must be a positive integer")
-        out[case] = {"thrusts_N": thrusts, "eps": eps, "models": list(models), "max_steps": max_steps}
+        carry = s.get("carry_from") or {}
+        if not isinstance(carry, dict):
+            raise ConfigError(f"{key}.carry_from", carry, "must be a mapping {model: the model whose family it starts from}")
+        for m, seed in carry.items():
+            if m not in known:
+                raise ConfigError(f"{key}.carry_from", m, f"not one of the case's models ({', '.join(known)})")
+            if seed not in models or seed == m:
+                raise ConfigError(f"{key}.carry_from.{m}", seed, "must be another of the family's models")
+        out[case] = {"thrusts_N": thrusts, "eps": eps, "models": list(models), "max_steps": max_steps,
+                     "carry_from": dict(carry)}
     return out
 
 
@@ -97,6 +115,23 @@ def describe(sol: Solution, samples_per_rev: int = 400) -> dict:
             "duty": (tr.m0 - m_f) / (sol.thrust_N * tof_s / tr.c)}
 
 
+def point(sol: Solution, stats: dict, wall_s: float) -> dict:
+    """One point of a family: the thrust, ε, :func:`describe` and the cost of the path to it."""
+    return {"thrust_N": sol.thrust_N, "eps": float(sol.prm["eps_final"]), **describe(sol),
+            "steps": stats.get("steps", 0), "jacobians": stats.get("jacobian_evaluations", 0), "wall_s": wall_s}
+
+
+def carry(seed: Solution, tr: Transfer, options, label: str) -> Solution:
+    """The family point ``seed`` (another force model's OT solution, at its thrust and ε) carried
+    to the force model of ``tr`` at the same thrust and ε: the model blend followed in arclength
+    (``studies.perturbed.warm_start``; from an unperturbed point, the perturbations switched on).
+    ConvergenceError where it does not arrive."""
+    from .perturbed import warm_start
+    T, eps = seed.thrust_N, float(seed.prm["eps_final"])
+    tr = dataclasses.replace(tr, thrust=T, eps_final=eps)
+    return at_thrust(warm_start(seed, tr, label, options=options, model_path="arclength"), T, eps)
+
+
 def follow(sol: Solution, thrusts_N: list, eps: float, options, label: str, points: list | None = None,
            on_point: Callable[[Solution, list], None] | None = None) -> tuple[Solution, list, str]:
     """The family of the OT solution ``sol`` down through ``thrusts_N`` at ε = ``eps``: (its last
@@ -112,9 +147,7 @@ def follow(sol: Solution, thrusts_N: list, eps: float, options, label: str, poin
     points = list(points or [])
 
     def reached(s: Solution, stats: dict, wall_s: float) -> None:
-        points.append({"thrust_N": s.thrust_N, "eps": float(s.prm["eps_final"]), **describe(s),
-                       "steps": stats.get("steps", 0), "jacobians": stats.get("jacobian_evaluations", 0),
-                       "wall_s": wall_s})
+        points.append(point(s, stats, wall_s))
         if on_point:
             on_point(s, points)
 
@@ -141,30 +174,39 @@ def follow(sol: Solution, thrusts_N: list, eps: float, options, label: str, poin
     return sol, points, ""
 
 
-def rows(case: str, model: str, payload: dict) -> list[dict]:
-    """The table's rows of one family artifact (its ``extra['family']``)."""
-    return [{"case": case, "model": model, **{k: p[k] for k in COLUMNS[2:]}} for p in payload["extra"]["family"]["points"]]
+def rows(case: str, payload: dict) -> list[dict]:
+    """The table's rows of one family artifact (its ``extra['family']``: the force model, the
+    start, 'ot' or 'family_<model>' for a carried family, and the points)."""
+    fam = payload["extra"]["family"]
+    return [{"case": case, "model": fam["model"], "start": fam["start"], **{k: p[k] for k in COLUMNS[3:]}}
+            for p in fam["points"]]
 
 
 def sentence(rows: list, stops: dict, model_names: dict, checked: dict | None = None) -> str:
-    """LaTeX for the paper: per case and model the least thrust the family reached (an upper bound
-    on T_min), its m_f, Δt and largest apogee there, whether it stopped short (``stops``: (case,
-    model) → reason, '' where it reached its last thrust), and the existence check's T_min or bound
-    beside it (``checked``: (case, model) → the ``existence.csv`` row). '' without rows."""
+    """LaTeX for the paper: per case and family (model and start) the least thrust reached (an
+    upper bound on T_min), its m_f, Δt and largest apogee there, whether it stopped short
+    (``stops``: (case, model, start) → reason, '' where it reached its last thrust), and the
+    existence check's T_min or bound beside it (``checked``: (case, model) → the
+    ``existence.csv`` row). '' without rows."""
     parts = []
     for case in dict.fromkeys(r["case"] for r in rows):
         items = []
-        for model in dict.fromkeys(r["model"] for r in rows if r["case"] == case):
-            rs = [r for r in rows if r["case"] == case and r["model"] == model]
+        for model, start in dict.fromkeys((r["model"], r["start"]) for r in rows if r["case"] == case):
+            rs = [r for r in rows if (r["case"], r["model"], r["start"]) == (case, model, start)]
             last = min(rs, key=lambda r: float(r["thrust_N"]))
             apogee = f"{float(last['max_apogee_km']):,.0f}".replace(",", "\\,")
             check = (checked or {}).get((case, model))
             le = "$\\le$ " if check is not None and check["T_min_is"] == "upper bound" else ""
             beside = "" if check is None else f"; the check above: {le}{float(check['T_min_N']):.4g}~N"
-            items.append(f"{model_names.get(model, model)} $T_{{min}} \\le$ {float(last['thrust_N']):g}~N "
+            name = model_names.get(model, model)
+            if start != "ot":
+                seed = start.removeprefix("family_")
+                first = max(rs, key=lambda r: float(r["thrust_N"]))
+                name += f" (carried from the {model_names.get(seed, seed)} family at {float(first['thrust_N']):g}~N)"
+            items.append(f"{name} $T_{{min}} \\le$ {float(last['thrust_N']):g}~N "
                          f"($m_f$ {float(last['m_f_kg']):.1f}~kg, $\\Delta t$ {float(last['tof_days']):.1f}~d, "
                          f"apogee up to {apogee}~km; "
-                         + ("the next thrust was not reached" if stops.get((case, model)) else "the last listed thrust")
+                         + ("the next thrust was not reached" if stops.get((case, model, start)) else "the last listed thrust")
                          + beside + ")")
         eps = float(min((r for r in rows if r["case"] == case), key=lambda r: float(r["thrust_N"]))["eps"])
         parts.append(f"{case.upper()}: " + "; ".join(items)
