@@ -19,8 +19,11 @@ script now calls for the continuation and the per-point scalars).
                      Δt, the largest apogee radius and eccentricity on the way, the least radius
                      the trajectory reaches (its own, sampled 400 times a revolution), and the
                      throttle's duty (propellant over T·Δt/c: 1 for an engine always on)
-  below PATH T1,T2,… the family continued on down from a saved point at its ε (the DAG's
-                     results/perturbed/e7/family_<model>.json: its least-thrust point)
+  below PATH T1,T2,… [TOL_STEP]
+                     the family continued on down from a saved point at its ε (the DAG's
+                     results/perturbed/e7/family_<model>.json: its least-thrust point, or a
+                     checkpoint's point.json), the path corrector's tolerance TOL_STEP if given
+                     (default 1e-4)
   model PATH MODEL   that saved point carried to the force model MODEL at its thrust and ε by
                      the model blend (``chain.continue_in_model``; run where results/ has E7's
                      ephemeris window)
@@ -69,8 +72,8 @@ def ot_at(n_rev, thrust_N):
     return ot
 
 
-def follow(sol, thrusts, eps, label):
-    _, _, stop = TF.follow(sol, thrusts, eps, QUIET, label, on_point=lambda s, pts: show(s, pts[-1]))
+def follow(sol, thrusts, eps, label, options=QUIET):
+    _, _, stop = TF.follow(sol, thrusts, eps, options, label, on_point=lambda s, pts: show(s, pts[-1]))
     if stop:
         print(f"stopped: {stop}", flush=True)
 
@@ -87,9 +90,10 @@ def family(n_rev, thrusts, eps=None, model="unperturbed"):
     follow(sol, thrusts[1:], eps, f"n {n_rev:g}")
 
 
-def below(path, thrusts):
+def below(path, thrusts, tol_step=None):
     sol = P.load(path)
-    follow(sol, [float(x) for x in thrusts.split(",")], float(sol.prm["eps_final"]), "below")
+    options = QUIET if tol_step is None else dataclasses.replace(QUIET, tol_step=float(tol_step))
+    follow(sol, [float(x) for x in thrusts.split(",")], float(sol.prm["eps_final"]), "below", options)
 
 
 def model(path, name):
