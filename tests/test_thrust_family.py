@@ -1,14 +1,15 @@
 """The minimum-fuel family followed down in the thrust (spaceopt.studies.thrust_family): E1
 (2 revolutions) under J2 from its 15 N OT extremal (conftest), moved to ε 1e-2 and on to 14 N,
-then a thrust far below its T_min that the family cannot reach; and its 14 N point carried to
-the 2×2 geopotential on the Earth rotation angle (conftest's e1_g22_era model, whose OT programs
-the cache shares) and followed on down from there."""
+then a thrust far below its T_min that the family cannot reach; and its points at ε 1e-2 (15 and
+14 N) carried to the 2×2 geopotential on the Earth rotation angle (conftest's e1_g22_era model,
+whose OT programs the cache shares), the least-thrust one followed on down from there."""
 import dataclasses
 
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from spaceopt.errors import ConvergenceError
 from spaceopt.indirect.continuation import ContinuationOptions
 from spaceopt.indirect.shooting import residual
 from spaceopt.studies import perturbed as P, thrust_family as TF, verify
@@ -95,27 +96,60 @@ def test_the_verifier_replays_a_family_point_and_probes_its_thrust(family, tmp_p
 
 @pytest.fixture(scope="module")
 def carried(family, e1_j2_ot):
-    """The family's 14 N point (ε 1e-2, J2) carried to 2×2 on the ERA, then on down to 13.9 N."""
-    last = family[0]
+    """The family's points at ε 1e-2 (J2: 15 and 14 N) carried to 2×2 on the ERA, the 14 N one then
+    on down to 13.9 N."""
+    last, points = family[0], family[1]
     target = dataclasses.replace(e1_j2_ot.transfer, perturbations=G22_ERA, thrust=99.0, eps_final=1e-5)
     options = ContinuationOptions(max_steps=30, verbose=False)
-    first = TF.carry(last, target, options, "carry")
-    return last, first, TF.follow(first, [13.9], 1e-2, options, "carried", [TF.point(first, first.stats, 0.0)])
+    seen = []
+    seed_points = TF.seeds(last, points, 1e-2)
+    first, pts, failed = TF.carry_points(seed_points, target, options, "carry",
+                                         on_point=lambda s, p, f: seen.append((s, len(p), dict(f))))
+    return seed_points, first, pts, failed, seen, target, TF.follow(first, [13.9], 1e-2, options, "carried", pts)
 
 
-def test_a_point_carried_to_another_model_solves_that_models_problem(carried):
-    """The carried point keeps the seed's thrust and ε (not the target transfer's), is a root of
-    the OT problem under the target model and not under the seed's, and the family goes on from
-    it as from any point."""
-    seed, first, (last, points, stop) = carried
+def test_the_seeds_are_the_points_at_the_familys_eps_by_falling_thrust(family, carried):
+    """A family's points keep their unknowns, and its points at its ε are solutions of their own
+    problems (the start at ε_f is not one of them)."""
+    seed_points = carried[0]
+    assert [(s.thrust_N, s.prm["eps_final"]) for s in seed_points] == [(15.0, 1e-2), (14.0, 1e-2)]
+    for s in seed_points:
+        assert _norm_f(s, s.transfer.params(thrust=s.thrust_N)) < 1e-8
+    np.testing.assert_array_equal(seed_points[-1].z, family[0].z)
+
+
+def test_each_point_carried_to_another_model_solves_that_models_problem(carried):
+    """Each carried point keeps its seed's thrust and ε (not the target transfer's), is a root of
+    the OT problem under the target model and not under the seed's, and each was checkpointed;
+    the family goes on down from the least-thrust one as from any point."""
+    seed_points, first, pts, failed, seen, _, (last, points, stop) = carried
+    assert failed == {} and [p["thrust_N"] for p in pts] == [15.0, 14.0] and [n for _, n, _ in seen] == [1, 2]
     assert (first.thrust_N, first.prm["eps_final"]) == (14.0, 1e-2) == (first.transfer.thrust, first.transfer.eps_final)
-    assert first.transfer.perturbations == G22_ERA and first.stats["steps"] > 0
-    assert _norm_f(first, first.transfer.params(thrust=14.0)) < 1e-8
-    assert _norm_f(first, dataclasses.replace(first.transfer, perturbations=seed.transfer.perturbations).params(
-        thrust=14.0)) > 1e-6
-    assert stop == "" and [p["thrust_N"] for p in points] == [14.0, 13.9] and last.thrust_N == 13.9
+    assert first.transfer.perturbations == G22_ERA and first.stats["steps"] > 0 and seen[-1][0] is first
+    for p, s in zip(pts, seed_points):
+        here = TF.at_thrust(dataclasses.replace(first, z=np.asarray(p["z"])), p["thrust_N"], 1e-2)
+        assert _norm_f(here, here.transfer.params(thrust=p["thrust_N"])) < 1e-8
+        assert _norm_f(here, dataclasses.replace(here.transfer, perturbations=s.transfer.perturbations).params(
+            thrust=p["thrust_N"])) > 1e-6
+        assert abs(p["m_f_kg"] - TF.describe(s)["m_f_kg"]) < 1.0             # 2×2 is a small change
+    assert stop == "" and [p["thrust_N"] for p in points] == [15.0, 14.0, 13.9] and last.thrust_N == 13.9
     assert _norm_f(last, last.transfer.params(thrust=13.9)) < 1e-8
-    assert abs(points[0]["m_f_kg"] - TF.describe(seed)["m_f_kg"]) < 1.0          # 2×2 is a small change
+
+
+def test_a_resumed_carry_skips_the_points_done_and_a_failed_one_is_recorded_not_raised(carried, monkeypatch):
+    """An interrupted job's points and failures are not tried again; a seed whose carry does not
+    arrive (a ConvergenceError: here the 15 N one's, raised in its place) is listed with its
+    reason, and the points before it stand."""
+    seed_points, first, pts, _, _, target, _ = carried
+    options = ContinuationOptions(max_steps=30, verbose=False)
+    assert TF.carry_points(seed_points, target, options, "again", pts, {}) == (None, pts, {})
+
+    def carry(seed, tr, opt, label):
+        raise ConvergenceError(f"{label}: fold", {"reason": "fold"})
+    monkeypatch.setattr(TF, "carry", carry)
+    last, points, failed = TF.carry_points(seed_points, target, options, "failing", pts[1:])
+    assert last is None and points == pts[1:] and failed == {"15": "failing 15 N: fold"}
+    assert TF.carry_points(seed_points, target, options, "resumed", pts[1:], failed) == (None, pts[1:], failed)
 
 
 def test_the_rows_and_the_sentence_name_each_bound_and_its_stop():
@@ -134,6 +168,6 @@ def test_the_rows_and_the_sentence_name_each_bound_and_its_stop():
     assert ("unperturbed $T_{min} \\le$ 0.3~N ($m_f$ 668.3~kg, $\\Delta t$ 192.4~d, apogee up to 535\\,422~km; "
             "the last listed thrust; the check above: $\\le$ 0.3091~N)") in text
     assert f"{MODEL_TEX['j2']} $T_{{min}} \\le$ 0.31~N" in text and "the next thrust was not reached" in text
-    assert (f"{MODEL_TEX['g44_moon_sun']} (carried from the {MODEL_TEX['j2']} family at 0.31~N) $T_{{min}} \\le$ 0.31~N "
+    assert (f"{MODEL_TEX['g44_moon_sun']} (the {MODEL_TEX['j2']} family's points carried to it) $T_{{min}} \\le$ 0.31~N "
             "($m_f$ 670.9~kg") in text
     assert TF.sentence([], {}, MODEL_TEX) == ""

@@ -21,12 +21,18 @@ the bound. Per point: m_f, the propellant, Δt, the largest osculating apogee ra
 eccentricity, the least radius reached, and the duty (propellant over T·Δt/c: 1 for an engine on
 all the time), from the physical samples (``studies.trajectory.sample``).
 
-A family may also start from another model's family (``carry_from``, :func:`carry`): that
-family's least-thrust point is carried to this model at its thrust and ε by the force-model
-blend, then followed on down through the listed thrusts below it. E7: the full model's own
-family stops at 0.8 N (step-size underflow near 0.728 N, cause not found; sixty-fourth session),
-while the J2 family's 0.30 N point carried to the full model converges, so the bound holds
-there too.
+A family may also start from another model's family (``carry_from``, :func:`carry_points`):
+each of that family's points at its ε is carried to this model at its thrust by the force-model
+blend, independently of the others, and the least-thrust one reached is followed on down through
+the listed thrusts below it. This is how a model whose Hamiltonian depends on t is followed in
+the thrust. E7's full model (tesseral terms, Moon, Sun): φ = p_t(K_f) wiggles by 3–5e-6 within
+0.2 d of t_f, so its free-time extremals come and go in pairs as T changes, and its own family
+from 1 N stops past such a fold near 0.728 N (the path, whose tolerance is 60 times the φ it
+should hold at zero, walks on through points that are no extremals until no step contracts;
+docs/perturbed-e6-e7-e8.md, sixty-fifth session). Each J2 point carried lands on a free-time
+extremal of the full model near the J2 point's t_f (scratch: 14–15 Jacobians at 0.8 and 0.6 N,
+146 at 0.30 N), where a time-independent model's family (J2, unperturbed: p_t ≡ 0) runs on one
+branch.
 """
 from __future__ import annotations
 
@@ -116,9 +122,20 @@ def describe(sol: Solution, samples_per_rev: int = 400) -> dict:
 
 
 def point(sol: Solution, stats: dict, wall_s: float) -> dict:
-    """One point of a family: the thrust, ε, :func:`describe` and the cost of the path to it."""
+    """One point of a family: the thrust, ε, :func:`describe`, the cost of the path to it, and
+    the unknowns ``z`` (so that another model's family can start from it, :func:`seeds`)."""
     return {"thrust_N": sol.thrust_N, "eps": float(sol.prm["eps_final"]), **describe(sol),
-            "steps": stats.get("steps", 0), "jacobians": stats.get("jacobian_evaluations", 0), "wall_s": wall_s}
+            "steps": stats.get("steps", 0), "jacobians": stats.get("jacobian_evaluations", 0), "wall_s": wall_s,
+            "z": [float(v) for v in sol.z]}
+
+
+def seeds(last: Solution, points: list, eps: float) -> list[Solution]:
+    """A family's points at ε = ``eps`` as solutions, by falling thrust: its artifact's solution
+    ``last`` (the least-thrust point) with each point's unknowns, relabelled at the point's
+    thrust (:func:`at_thrust`)."""
+    at_eps = [p for p in points if np.isclose(p["eps"], eps, rtol=1e-12, atol=0)]
+    return [at_thrust(dataclasses.replace(last, z=np.asarray(p["z"], float)), p["thrust_N"], eps)
+            for p in sorted(at_eps, key=lambda p: -p["thrust_N"])]
 
 
 def carry(seed: Solution, tr: Transfer, options, label: str) -> Solution:
@@ -130,6 +147,33 @@ def carry(seed: Solution, tr: Transfer, options, label: str) -> Solution:
     T, eps = seed.thrust_N, float(seed.prm["eps_final"])
     tr = dataclasses.replace(tr, thrust=T, eps_final=eps)
     return at_thrust(warm_start(seed, tr, label, options=options, model_path="arclength"), T, eps)
+
+
+def carry_points(seed_points: list[Solution], tr: Transfer, options, label: str, points: list | None = None,
+                 not_carried: dict | None = None, on_point: Callable[[Solution, list, dict], None] | None = None
+                 ) -> tuple[Solution | None, list, dict]:
+    """Each of ``seed_points`` (another model's family, :func:`seeds`, by falling thrust) carried to
+    the model of ``tr`` (:func:`carry`): (the least-thrust solution reached, or None where none
+    arrived, the points, {thrust: why} of the seeds not carried).
+
+    ``points`` and ``not_carried``: those of an interrupted run (its checkpoint); a seed whose
+    thrust is in either is not tried again. After each seed, the solution reached last (None
+    where none has arrived yet), the points and the failures go to ``on_point`` (a checkpoint)."""
+    points, not_carried = list(points or []), dict(not_carried or {})
+    done = {p["thrust_N"] for p in points} | {float(T) for T in not_carried}
+    last = None
+    for s in seed_points:
+        if s.thrust_N in done:
+            continue
+        t0 = time.perf_counter()
+        try:
+            last = carry(s, tr, options, f"{label} {s.thrust_N:g} N")
+            points.append(point(last, last.stats, time.perf_counter() - t0))
+        except ConvergenceError as exc:
+            not_carried[f"{s.thrust_N:g}"] = str(exc)
+        if on_point:
+            on_point(last, points, not_carried)
+    return last, points, not_carried
 
 
 def follow(sol: Solution, thrusts_N: list, eps: float, options, label: str, points: list | None = None,
@@ -201,8 +245,7 @@ def sentence(rows: list, stops: dict, model_names: dict, checked: dict | None = 
             name = model_names.get(model, model)
             if start != "ot":
                 seed = start.removeprefix("family_")
-                first = max(rs, key=lambda r: float(r["thrust_N"]))
-                name += f" (carried from the {model_names.get(seed, seed)} family at {float(first['thrust_N']):g}~N)"
+                name += f" (the {model_names.get(seed, seed)} family's points carried to it)"
             items.append(f"{name} $T_{{min}} \\le$ {float(last['thrust_N']):g}~N "
                          f"($m_f$ {float(last['m_f_kg']):.1f}~kg, $\\Delta t$ {float(last['tof_days']):.1f}~d, "
                          f"apogee up to {apogee}~km; "
