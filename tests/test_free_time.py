@@ -20,6 +20,7 @@ class ModelFamily:
         self.phi, self.mass, self.fails_above, self.fails_once = phi, mass, fails_above, set(fails_once)
         self.opt = ft.MaximumOptions(probe_days=probe_days, tof_tol_days=1e-9, verbose=False)
         self.e_t = np.array([0.0, 1.0])
+        self.eps = self.eps_f = 1e-5
         self.calls = []
 
     def point(self, tf, z, J=None):
@@ -50,6 +51,7 @@ class FoldFamily(ft.FixedTimeFamily):
         self.phi_of, self.mass_of = phi, mass
         self.T, self.dT = shape
         self.e_t = np.array([0.0, 1.0])
+        self.eps = self.eps_f = 1e-5
         self.jacobians = self.residuals = self.solves = 0
 
     def evaluate(self, z, tf, jacobian):
@@ -244,6 +246,26 @@ def test_the_survey_finds_the_other_maxima_of_the_family_within_its_window(windo
         return
     assert found == pytest.approx([1.3], abs=1e-6) and s.folds == 2
     assert max(maxima, key=lambda p: p.m_f).z[0] == pytest.approx(1.3, abs=1e-6)
+
+
+# No fold (t_f = u), φ with roots at u = 0 (a maximum), 0.34 (a minimum) and 0.49 (a maximum):
+# from 0 the survey's steps double to 8 secants (0.16 d) and one of them, 0.335 → 0.495 d, has
+# φ > 0 at both ends with both roots inside, m_f rising across it (the E7 full model at 1 N).
+PAIR_PHI = np.polynomial.Polynomial.fromroots([0.0, 0.34, 0.49])
+LINE = (lambda u: u, lambda u: 1.0)
+
+
+def test_a_survey_step_over_a_hidden_pair_of_roots_of_phi_is_retried_shorter():
+    """The step whose m_f moves against the sign φ has at both its ends is no step along one
+    monotone piece: it is retried shorter, and the maximum at u = 0.49 it passed over is found."""
+    fam = FoldFamily(PAIR_PHI, -PAIR_PHI.integ(), probe_days=0.02, shape=LINE, max_points=100)
+    fam.opt = dataclasses.replace(fam.opt, max_arc_step=8.0, survey_days=0.6, survey_max_points=100)
+    s = ft.MaximumSearch(fam, tu=ft.DAY, m0_kg=1.0)
+    best = s.solve(*fam.start(0.0))
+    maxima = s.survey(best)
+    assert [p.z[0] for p in maxima] == pytest.approx([0.0, 0.49], abs=1e-6)
+    kept = sorted(p.tf for p in s.kept)
+    assert all(b - a < 0.16 for a, b in zip(kept, kept[1:]) if 0.3 < b < 0.5)   # no step over both roots
 
 
 def test_the_march_gives_up_after_max_points():

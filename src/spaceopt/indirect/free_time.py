@@ -428,8 +428,14 @@ class MaximumSearch:
         of the family, not the piece the step follows. Near a fold the tangent has almost no t_f
         component, so that hyperplane runs almost along t_f (E8 full 450 on the exact map, a step
         of 4 secants at the fold at 289.740 d converged 2.7 d away, at 292.470 d;
-        docs/perturbed-e6-e7-e8.md, "fifty-ninth session"). ``fold``: the tangent's t_f
-        component changed sign between the two points (a fold in t_f passed)."""
+        docs/perturbed-e6-e7-e8.md, "fifty-ninth session"). A step with no fold whose m_f moves
+        against the sign φ has at both its ends (:meth:`branch_jump`; at ε_f only, where the
+        envelope relation holds) counts as a failure too: φ changed sign an even number of times
+        inside it, so it stepped over a maximum and a minimum, or it left the sheet (E7 full
+        model, 1 N: a step of 8 secants from 87.392 to 87.867 d, φ < 0 at both, m_f 2.4 g lower,
+        passed over the heaviest maximum within 1 d, 87.565 d; "sixty-sixth session").
+        ``fold``: the tangent's t_f component changed sign between the two points (a fold in
+        t_f passed)."""
         fam = self.family
         a, last = trail[-2], trail[-1]
         secant = last.x - a.x
@@ -449,6 +455,11 @@ class MaximumSearch:
                 self.log(f"  arclength step {h / h_secant:.3g} of the secant landed at {self.where(p.tf)}, "
                          f"{off / h:.3g} steps off its predictor: another branch")
                 p = None
+            if p is not None:
+                w = unit(fam.tangent(p), p.x - last.x)
+                fold = bool(np.sign(w[-1]) != np.sign(v[-1]))
+                if not fold and fam.eps == fam.eps_f and self.branch_jump(last, p, np.sign(p.tf - last.tf)):
+                    p = None
             if p is None:
                 self.log(f"  arclength step {h / h_secant:.3g} of the secant failed")
                 if h <= h_secant / 64:
@@ -457,8 +468,6 @@ class MaximumSearch:
                 h *= 0.5
                 continue
             self.arc_points += 1
-            w = unit(fam.tangent(p), p.x - last.x)
-            fold = bool(np.sign(w[-1]) != np.sign(v[-1]))
             self.folds += int(fold)
             self.keep(p, ", a fold in t_f passed" if fold else "")
             yield last, p, fold, float(w[-1])
