@@ -9,37 +9,30 @@ The DAG's E7 end game certifies the local maximum of m_f in t_f next to the OT s
             ``results/perturbed/e7/g44_moon_sun.json``
   carried   the 1 N point of the J2 family carried to the full model
             (``results/perturbed/e7/family_g44_moon_sun_from_j2.json``, ε 1e-2) taken down to
-            ε_f by the smoothing homotopy in arclength, then the same end game and survey
+            ε_f by the smoothing homotopy in arclength (``chain.smoothing_to``), then the same end game and survey
 
 Usage: python docs/experiments/e7_tof_survey.py {ot|carried} [--days 1.0]
 (from the repository root, after ``./dev reproduce results/perturbed/thrust_family.csv``).
 """
 import argparse
-import json
 import time
 
+from spaceopt import artifacts
 from spaceopt.indirect import chain
 from spaceopt.indirect.free_time import MaximumOptions, maximise_final_mass
-from spaceopt.indirect.transfer import datum
 from spaceopt.studies import perturbed as P, thrust_family as TF
 
 E7 = "results/perturbed/e7/"
 
 
 def carried_at_eps_f() -> chain.Solution:
-    """The carried family's 1 N point moved from its ε to the case's ε_f in arclength (in τ,
-    ``chain.smoothing_to``, it stalls at τ 0.576 for step-size underflow)."""
+    """The carried family's 1 N point moved from its ε to the case's ε_f in arclength (in τ it
+    stalls at τ 0.576 for step-size underflow)."""
     path = E7 + "family_g44_moon_sun_from_j2.json"
-    last = P.load(path)
-    points = json.load(open(path))["extra"]["family"]["points"]
-    eps = points[0]["eps"]
-    seed = TF.seeds(last, points, eps)[0]
+    family = artifacts.read_json(path)["extra"]["family"]
+    seed = TF.seeds(P.load(path), family["points"], family["eps"])[0]
     eps_f = float(P.load(E7 + "g44_moon_sun.json").prm["eps_final"])
-    sh = chain.shooting_for("ot", "eps", seed.transfer)
-    prm = {**seed.prm, "eps_blend": seed.prm["eps_final"], "eps_final": datum(eps_f)}
-    z, stats = chain._run(sh, seed.z, prm, f"carried {seed.thrust_N:g} N, eps down", None, path="arclength")
-    return chain.Solution("ot", seed.shooting, z, {**seed.prm, "eps_final": datum(eps_f)}, seed.transfer, stats,
-                          thrust_N=seed.thrust_N)
+    return chain.smoothing_to(seed, eps_f, label=f"carried {seed.thrust_N:g} N, eps down", path="arclength")
 
 
 def main():

@@ -445,14 +445,17 @@ def continue_in_model(sol: Solution, prm_to: dict, options=None, label="model", 
     return solved(z, stats)
 
 
-def smoothing_to(sol: Solution, eps_to: float, options=None, label="eps") -> Solution:
+def smoothing_to(sol: Solution, eps_to: float, options=None, label="eps", path: str = "tau") -> Solution:
     """The OT solution ``sol`` (at ε = prm['eps_final']) moved to ε = ``eps_to`` at the same data
-    by the ε homotopy (log-uniform in τ; upwards too). The result carries eps_final = eps_to."""
+    by the ε homotopy (log-uniform in τ; upwards too), followed in ``path`` ("tau" or
+    "arclength": E7's full model at 1 N from ε 1e-2 stalls at τ 0.576 in τ, and arrives in
+    arclength without a fold; docs/perturbed-e6-e7-e8.md, "sixty-sixth session"). The result
+    carries eps_final = eps_to."""
     if sol.stage != "ot":
         raise ValueError("the smoothing homotopy is for OT solutions")
     sh = shooting_for("ot", "eps", sol.transfer)
     prm = {**sol.prm, "eps_blend": sol.prm["eps_final"], "eps_final": datum(eps_to)}
-    z, stats = _run(sh, sol.z, prm, label, options)
+    z, stats = _run(sh, sol.z, prm, label, options, path)
     return Solution("ot", sol.shooting, z, {**sol.prm, "eps_final": datum(eps_to)},
                     sol.transfer, stats, thrust_N=sol.thrust_N)
 
