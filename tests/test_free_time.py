@@ -72,7 +72,7 @@ def search(family, t0):
     s = ft.MaximumSearch(family, tu=ft.DAY, m0_kg=1.0)      # time unit = 1 day
     origin = s.solve(t0, np.array([t0, 0.0]))
     found = s.bracket(origin)
-    return s, found, (None if isinstance(found, str) else s.root(*found))
+    return s, found, (None if isinstance(found, str) else s.root(*found)[0])
 
 
 def test_a_maximum_at_the_solution_is_certified_by_the_probes():
@@ -134,7 +134,7 @@ def search_fold(fam, u0):
     t0, z0 = fam.start(u0)
     s = ft.MaximumSearch(fam, tu=ft.DAY, m0_kg=1.0)
     found = s.bracket(s.solve(t0, z0))
-    return s, found, (None if isinstance(found, str) else s.root(*found))
+    return s, found, (None if isinstance(found, str) else s.root(*found)[0])
 
 
 def test_arclength_goes_round_a_fold_from_the_downhill_branch():
@@ -276,14 +276,45 @@ def test_the_march_gives_up_after_max_points():
 
 
 def test_brent_returns_a_crossing_from_minus_to_plus_inside_a_wiggly_bracket():
-    """Three roots in the bracket (max, min, max): the root returned is a − → + crossing."""
+    """Three roots in the bracket (max, min, max), m_f flat: every root returned is a − → +
+    crossing, never the minimum at 0.5."""
     phi = lambda t: (t - 0.2) * (t - 0.5) * (t - 0.8)
     fam = ModelFamily(phi, lambda t: 0.0)
     s = ft.MaximumSearch(fam, tu=ft.DAY, m0_kg=1.0)
     left, right = s.solve(0.0, np.zeros(2)), s.solve(1.0, np.zeros(2))
-    best = s.root(left, right)
-    assert min(abs(best.tf - 0.2), abs(best.tf - 0.8)) < 1e-8
-    assert phi(best.tf - 1e-3) < 0 < phi(best.tf + 1e-3)
+    roots = s.root(left, right)
+    assert roots and all(min(abs(p.tf - 0.2), abs(p.tf - 0.8)) < 1e-8 for p in roots)
+    assert all(phi(p.tf - 1e-3) < 0 < phi(p.tf + 1e-3) for p in roots)
+
+
+# φ with roots at 0.2153 (a maximum), 0.2718 (a minimum) and 0.7404 (a maximum, the heavier):
+# Brent on [0, 1] ends at the lighter maximum, 0.2153 (E7 full model: the survey's bracket
+# 87.54–88.10 d held two maxima and the minimum between them, "sixty-seventh session").
+TWO_MAXIMA_PHI = np.polynomial.Polynomial.fromroots([0.2153, 0.2718, 0.7404])
+
+
+def test_a_bracket_with_two_maxima_gives_both_the_heavier_first():
+    """Brent's points right of its root (φ > 0 at both ends of that stretch) fit no monotone
+    m_f: its midpoint is solved, the other crossing appears and is solved too."""
+    mass = -TWO_MAXIMA_PHI.integ()
+    fam = ModelFamily(TWO_MAXIMA_PHI, mass)
+    s = ft.MaximumSearch(fam, tu=ft.DAY, m0_kg=1.0)
+    left, right = s.solve(0.0, np.zeros(2)), s.solve(1.0, np.zeros(2))
+    first = ft.brentq(TWO_MAXIMA_PHI, 0.0, 1.0, xtol=s.opt.tof_tol_days)
+    assert first == pytest.approx(0.2153, abs=1e-6)                 # Brent alone: the lighter one
+    assert [p.tf for p in s.root(left, right)] == pytest.approx([0.7404, 0.2153], abs=1e-6)
+    assert mass(0.7404) > mass(0.2153)
+
+
+def test_a_stretch_of_one_sign_of_phi_is_told_from_one_that_hides_two_roots():
+    """hidden_slope: zero for a monotone m_f (φ > 0 from 0 to 1) and where φ changes sign;
+    positive where φ > 0 at both ends but negative inside (0.3 to 0.6)."""
+    point = lambda P, t: ft.FixedTimePoint(t, np.zeros(2), np.eye(2), float(-P.integ()(t)), float(P(t)))
+    monotone = np.polynomial.Polynomial([1.0, 0.0, 1.0])
+    pair = np.polynomial.Polynomial.fromroots([0.3, 0.6])
+    assert ft.hidden_slope(point(monotone, 0.0), point(monotone, 1.0)) == 0.0
+    assert ft.hidden_slope(point(pair, 0.0), point(pair, 0.5)) == 0.0
+    assert ft.hidden_slope(point(pair, 0.0), point(pair, 1.0)) > 0.0
 
 
 @pytest.fixture(scope="module")
@@ -435,7 +466,7 @@ def test_where_the_family_folds_at_eps_f_the_search_goes_across_at_a_larger_eps(
     left, right = s.across_branches(origin, found)
     assert fam.eps == fam.eps_f and not s.at_lift
     assert s.lifted and s.lift_bracket[0] < 1.2 ** 3 + 0.5 * 1.2 < s.lift_bracket[1]   # the lifted maximum
-    best = s.root(left, right)
+    best, = s.root(left, right)
     assert best.z[0] == pytest.approx(1.2, abs=1e-6) and best.tf == pytest.approx(1.2 ** 3 - 1.2, abs=1e-6)
     assert all(p.z[0] > 1.0 / np.sqrt(3.0) for p in s.points[before:])      # landed beyond the folds
     lifted = sorted(p.tf for p in s.lifted)
@@ -471,7 +502,7 @@ def test_a_lift_that_brackets_nothing_still_descends_where_phi_came_closest_to_z
     origin = s.solve(t0, z0)
     left, right = s.across_branches(origin, s.bracket(origin))
     assert s.lift_failed and s.lift_bracket is None and max(p.phi for p in s.lifted) < 0.0
-    assert s.root(left, right).z[0] == pytest.approx(1.2, abs=1e-6) and fam.eps == fam.eps_f
+    assert [p.z[0] for p in s.root(left, right)] == pytest.approx([1.2], abs=1e-6) and fam.eps == fam.eps_f
 
 
 class JumpFamily(ModelFamily):

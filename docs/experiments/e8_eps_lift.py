@@ -133,7 +133,7 @@ def report(search, family, tr, found, t_start):
     if isinstance(found, str):
         search.log(f"no maximum: {found}")
     else:
-        best = search.root(*found)
+        best = search.root(*found)[0]
         search.log(f"maximum: t_f {search.days(best.tf):.5f} d, m_f {best.m_f * tr.m0:.6f} kg "
                    f"(propellant {tr.m0 * (1 - best.m_f):.4f} kg), phi {best.phi:+.2e}, "
                    f"free-time residual {family.free_time_residual(best.z):.2e}")

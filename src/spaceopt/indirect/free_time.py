@@ -44,7 +44,10 @@ its probes land on.
    each new point replacing the end of its own sign, so the negative end stays on the left and
    the root it returns is a crossing of φ from − to +: a local maximum of m_f. Where the
    solution itself lies in a bracket of the probes, Brent runs on the half of it that the
-   solution's φ bounds: one value of φ alone does not tell a maximum from a minimum.
+   solution's φ bounds: one value of φ alone does not tell a maximum from a minimum. A bracket
+   can hold two maxima and the minimum between them; the bracket's solved points are read
+   again, other crossings they show solved too, stretches whose m_f and φ fit no monotone m_f
+   split (:func:`hidden_slope`), and the heaviest maximum found returned;
 
 6. with ``survey_days``, follows the family on from that maximum both ways by arclength
    within a window of t_f, through its folds, certifies every other local maximum met there
@@ -107,6 +110,7 @@ class MaximumOptions:
     # this many days of it, the heaviest returned (MaximumSearch.survey; 0: off)
     survey_max_points: int = 40     # fixed-time solves of the survey each way at most
     jump_tol: float = 1e-9          # a step whose m_f moves against φ's sign by more (relative) left another branch
+    bracket_splits: int = 8         # midpoints solved inside a bracket where such a pair of its points hides roots
     verbose: bool = True
     label: str = ""
 
@@ -253,6 +257,29 @@ def _crossing(last: FixedTimePoint, p: FixedTimePoint, fold: bool):
     t_f); None otherwise."""
     left, right = sorted((last, p), key=lambda q: q.tf)
     return (left, right) if not fold and left.phi < 0.0 < right.phi else None
+
+
+def hidden_slope(a: FixedTimePoint, b: FixedTimePoint) -> float:
+    """The largest slope against the sign of φ at both ``a`` and ``b`` (a.tf < b.tf) of the cubic
+    Hermite interpolant of m_f(t_f) through them, with the slopes dm_f/dt_f = −φ of the envelope
+    relation (units of m₀ per time unit); 0 where φ changes sign between them or the interpolant
+    is monotone. Positive: the four values fit no m_f monotone between them, so φ likely changes
+    sign twice in (a, b) (a maximum and a minimum), the values of m_f being exact. It grows with
+    how far the mean slope (m_f(b) − m_f(a))/(b − a) falls short of the slopes at the ends; a
+    monotone m_f with ends more than three times steeper than its mean can show it too
+    (Fritsch & Carlson 1980), which only costs a solve more.
+
+    With s = (t − a)/h and d = −φ: h m′(s) = Δ (6s − 6s²) + h d_a (1 − 4s + 3s²) + h d_b (3s² − 2s),
+    Δ = m_f(b) − m_f(a), evaluated at its vertex."""
+    if np.sign(a.phi) != np.sign(b.phi):
+        return 0.0
+    h, delta = b.tf - a.tf, b.m_f - a.m_f
+    da, db = -a.phi, -b.phi
+    c2, c1, c0 = -6.0 * delta / h + 3.0 * (da + db), 6.0 * delta / h - 4.0 * da - 2.0 * db, da
+    s = -c1 / (2.0 * c2) if c2 != 0.0 else -1.0
+    if not 0.0 < s < 1.0:
+        return 0.0
+    return max(0.0, -np.sign(da) * (c2 * s * s + c1 * s + c0))
 
 
 def extrapolate(trail: list[FixedTimePoint], tf: float, e_t: np.ndarray) -> np.ndarray:
@@ -528,13 +555,14 @@ class MaximumSearch:
                 found = _crossing(last, p, fold)
                 if found:
                     try:
-                        root = self.root(*found)
+                        roots = self.root(*found)
                     except _NewtonFailed as exc:
                         self.log(f"  survey: fixed-time Newton failed inside the bracket at t_f {self.days(exc.tf):.5f} d")
                     else:
-                        maxima.append(root)
-                        self.log(f"  survey: a local maximum at t_f {self.days(root.tf):.5f} d, "
-                                 f"m_f {root.m_f * self.m0:.6f} kg")
+                        maxima += roots
+                        for root in roots:
+                            self.log(f"  survey: a local maximum at t_f {self.days(root.tf):.5f} d, "
+                                     f"m_f {root.m_f * self.m0:.6f} kg")
                 if abs(p.tf - best.tf) > window:
                     break
         return maxima
@@ -624,11 +652,20 @@ class MaximumSearch:
         found = self.bracket(landed)
         return found if not isinstance(found, str) else f"{reason}; after the lift, from t_f {self.days(landed.tf):.5f} d: {found}"
 
-    def root(self, left: FixedTimePoint, right: FixedTimePoint) -> FixedTimePoint:
-        """The crossing of φ from − to + in [left, right] (Brent), as its solved point. The starts
-        are interpolated between the bracket's own points only: where the family folds, other
-        solved points in that range of t_f lie on another branch."""
-        pool = [left, right]
+    def root(self, left: FixedTimePoint, right: FixedTimePoint) -> list[FixedTimePoint]:
+        """The crossings of φ from − to + in [left, right] that its solves reveal, as solved
+        points, heaviest first. Brent first; then the bracket's solved points are read again in
+        order of t_f: a neighbouring pair with φ from − to + and no root yet between them is
+        another crossing, solved by Brent in turn; a pair with φ of one sign whose values of m_f
+        and φ fit no monotone m_f (:func:`hidden_slope`, at ε_f only, where the envelope
+        relation holds; a change above ``jump_tol``) likely hides a pair of roots, and its
+        midpoint is solved (at most ``bracket_splits`` of them). A bracket can hold three roots, two maxima
+        and the minimum between them: E7 full model, 87.54–88.10 d ("sixty-seventh session"),
+        where Brent alone returns one maximum or the other by where its iterates fall. The
+        starts are interpolated between the bracket's own points only: where the family folds,
+        other solved points in that range of t_f lie on another branch."""
+        pool, roots, splits = [left, right], [], 0
+        xtol = self.opt.tof_tol_days * DAY / self.tu
 
         def phi(tf):
             p = next((q for q in pool if q.tf == tf), None)
@@ -639,8 +676,28 @@ class MaximumSearch:
                 pool.append(p)
             return p.phi
 
-        tf = brentq(phi, left.tf, right.tf, xtol=self.opt.tof_tol_days * DAY / self.tu, maxiter=40)
-        return min(pool, key=lambda p: abs(p.tf - tf))
+        def brent(a, b):
+            tf = brentq(phi, a.tf, b.tf, xtol=xtol, maxiter=40)
+            roots.append(min(pool, key=lambda p: abs(p.tf - tf)))
+
+        brent(left, right)
+        while True:
+            ordered = sorted(pool, key=lambda p: p.tf)
+            pairs = [(a, b) for a, b in zip(ordered, ordered[1:]) if b.tf - a.tf > 2.0 * xtol]
+            crossing = next(((a, b) for a, b in pairs if a.phi < 0.0 < b.phi
+                             and not any(a.tf <= r.tf <= b.tf for r in roots)), None)
+            hidden = next(((a, b) for a, b in pairs if self.family.eps == self.family.eps_f
+                           and hidden_slope(a, b) * (b.tf - a.tf) > self.opt.jump_tol * abs(a.m_f)),
+                          None) if splits < self.opt.bracket_splits else None
+            if crossing is not None:
+                self.log(f"  another crossing of phi inside the bracket, {self.days(crossing[0].tf):.5f}"
+                         f"-{self.days(crossing[1].tf):.5f} d")
+                brent(*crossing)
+            elif hidden is not None:
+                splits += 1
+                phi(0.5 * (hidden[0].tf + hidden[1].tf))
+            else:
+                return sorted(roots, key=lambda p: -p.m_f)
 
 
 class _NewtonFailed(Exception):
@@ -679,12 +736,15 @@ def maximise_final_mass(sol, options: MaximumOptions | None = None):
             left, right = found
             record["bracket_days"] = [search.days(left.tf), search.days(right.tf)]
             try:
-                best = search.root(left, right)
+                found = search.root(left, right)
             except _NewtonFailed as exc:
                 status = f"fixed-time Newton failed inside the bracket at t_f {search.days(exc.tf):.5f} d"
             else:
+                best = found[0]
+                if len(found) > 1:
+                    record["bracket_maxima"] = [[search.days(p.tf), p.m_f * tr.m0, p.phi] for p in found]
                 if opt.survey_days > 0.0:
-                    maxima = search.survey(best)
+                    maxima = search.survey(best) + found[1:]
                     record["survey"] = {"window_days": opt.survey_days, "first_tof_days": search.days(best.tf),
                                         "maxima": [[search.days(p.tf), p.m_f * tr.m0, p.phi]
                                                    for p in sorted(maxima, key=lambda p: p.tf)]}
