@@ -171,3 +171,48 @@ def test_the_rows_and_the_sentence_name_each_bound_and_its_stop():
     assert (f"{MODEL_TEX['g44_moon_sun']} (the {MODEL_TEX['j2']} family's points carried to it) $T_{{min}} \\le$ 0.31~N "
             "($m_f$ 670.9~kg") in text
     assert TF.sentence([], {}, MODEL_TEX) == ""
+
+
+def test_the_family_job_resumes_without_the_seeds_it_gave_up_and_a_failed_job_tries_them_again(tmp_path, monkeypatch):
+    """workflow/scripts/perturbed_thrust_family.py with a seed family none of whose points
+    arrives (the carry replaced by one that gives the 0.9 N seed up): interrupted after that, the
+    job resumes without trying it again; run to the end it fails with its diagnosis, and its next
+    run tries every seed again."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+    from types import SimpleNamespace
+    scripts = Path(__file__).parents[1] / "workflow/scripts"
+    sys.path.insert(0, str(scripts))
+    spec = importlib.util.spec_from_file_location("perturbed_thrust_family_job", scripts / "perturbed_thrust_family.py")
+    job = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(job)
+    seen, interrupt = [], [True]
+
+    def carry_points(todo, tr, options, label, points, not_carried, on_point):
+        seen.append(dict(not_carried))
+        failed = {**not_carried, "0.9": "fold"}
+        on_point(None, list(points or []), failed)
+        if interrupt.pop():
+            raise KeyboardInterrupt
+        return None, [], failed
+    monkeypatch.setattr(job.TF, "carry_points", carry_points)
+    monkeypatch.setattr(job.TF, "seeds", lambda *a: [])
+    monkeypatch.setattr(job.P, "transfer_from_config", lambda *a, **k: None)
+    monkeypatch.setattr(job.P, "ephemeris_path", lambda *a: None)
+    monkeypatch.setattr(job.P, "load", lambda path: None)
+    monkeypatch.setattr(job.artifacts, "read_json", lambda path: {"extra": {"family": {"points": []}}})
+    cfg = {"thrust_family": {"max_steps": 5, "eps": 1e-2, "thrusts_N": [0.9]}, "cases": {"e7": {"ephemeris": "e"}}}
+    out = tmp_path / "family_g44_moon_sun_from_j2.json"
+    sm = SimpleNamespace(params=SimpleNamespace(cfg=cfg, case="e7", model="g44_moon_sun", seed="j2", results=str(tmp_path)),
+                         output=[str(out)], input=SimpleNamespace(seed="family_j2.json"))
+    with pytest.raises(KeyboardInterrupt):
+        job.main(sm)
+    interrupt.append(False)
+    with pytest.raises(ConvergenceError, match="no point of the j2 family"):
+        job.main(sm)
+    assert job.artifacts.failure_path(out).exists()
+    interrupt.append(True)
+    with pytest.raises(KeyboardInterrupt):
+        job.main(sm)
+    assert seen == [{}, {"0.9": "fold"}, {}]

@@ -4,9 +4,11 @@ this model and the least-thrust one reached followed on down (spaceopt.studies.t
 artifact of its least-thrust point, with every point in its extra. A family that stops short is a
 result (the stop is recorded), not a failure, and so is a seed point that is not carried (listed
 in ``not_carried``); where no seed point is carried the job writes its diagnosis
-(<stem>.failure.json) and fails. Each point reached is checkpointed next to the output, under the
-config's hash, and an interrupted run resumes from the last one (its paths, too, from their last
-accepted step)."""
+(<stem>.failure.json) and fails (its next run tries every seed again). Each point reached, and
+each seed given up, is checkpointed next to the output, under the config's hash, and an
+interrupted run resumes from the last one (its paths, too, from their last accepted step)
+without trying the seeds given up again."""
+import json
 import shutil
 import sys
 import time
@@ -30,6 +32,7 @@ def main(sm):
     start = f"family_{seed}" if seed else "ot"
     ckdir = checkpoint_dir(out, cfg)
     point = ckdir / "point.json"
+    given_up = ckdir / "not_carried.json"              # the seeds given up before any was carried
     options = ContinuationOptions(max_steps=fam["max_steps"], checkpoint_dir=str(ckdir))
     t0 = time.perf_counter()
     artifacts.clear_failures(out)
@@ -42,7 +45,9 @@ def main(sm):
                            **({"not_carried": not_carried} if seed else {})}}
 
     def checkpoint(s, pts):
-        if s is None:                                  # no seed point carried yet: nothing to resume from
+        if s is None:                                  # no seed point carried yet: only the seeds given up
+            given_up.parent.mkdir(parents=True, exist_ok=True)
+            given_up.write_text(json.dumps(not_carried))
             return
         P.save(s, point, cfg, time.perf_counter() - t0 + before, record(pts), samples_per_rev=20)
         print(f"[{label}] T {s.thrust_N:g} N, eps {pts[-1]['eps']:g}: m_f {pts[-1]['m_f_kg']:.3f} kg, "
@@ -54,6 +59,9 @@ def main(sm):
     if resumed:
         not_carried.update(resumed.get("not_carried", {}))
         print(f"[{label}] resumed at {sol.thrust_N:g} N from {point}", file=sys.stderr, flush=True)
+    elif given_up.exists():
+        not_carried.update(json.loads(given_up.read_text()))
+        print(f"[{label}] resumed: seeds given up {sorted(not_carried)} N", file=sys.stderr, flush=True)
     if seed:                                           # every seed point not yet carried or given up
         tr = P.transfer_from_config(cfg, case, model, ephemeris=P.ephemeris_path(sm.params.results,
                                                                                cfg["cases"][case]["ephemeris"]))
@@ -70,6 +78,7 @@ def main(sm):
             exc = ConvergenceError(f"{label}: no point of the {seed} family carried to {model}",
                                    {"reason": "no seed point carried", "not_carried": not_carried})
             artifacts.write_failure(artifacts.failure_path(out), exc, cfg, time.perf_counter() - t0)
+            given_up.unlink(missing_ok=True)
             raise exc
         if not_carried:
             print(f"[{label}] not carried: {not_carried}", file=sys.stderr, flush=True)
