@@ -268,6 +268,20 @@ def test_a_survey_step_over_a_hidden_pair_of_roots_of_phi_is_retried_shorter():
     assert all(b - a < 0.16 for a, b in zip(kept, kept[1:]) if 0.3 < b < 0.5)   # no step over both roots
 
 
+# The same with roots at 0, 0.4 and 0.45: the step over the pair has φ > 0 at both ends and m_f
+# falls across it as φ says, but far less than φ at its far end says (E7 full model, 87.828 to
+# 88.069 d, over the 87.934 d maximum).
+NARROW_PAIR_PHI = np.polynomial.Polynomial.fromroots([0.0, 0.4, 0.45])
+
+
+def test_a_survey_step_whose_ends_fit_no_monotone_mass_is_retried_shorter():
+    fam = FoldFamily(NARROW_PAIR_PHI, -NARROW_PAIR_PHI.integ(), probe_days=0.02, shape=LINE, max_points=100)
+    fam.opt = dataclasses.replace(fam.opt, max_arc_step=8.0, survey_days=0.6, survey_max_points=100)
+    s = ft.MaximumSearch(fam, tu=ft.DAY, m0_kg=1.0)
+    best = s.solve(*fam.start(0.0))
+    assert [p.z[0] for p in s.survey(best)] == pytest.approx([0.0, 0.45], abs=1e-6)
+
+
 def test_the_march_gives_up_after_max_points():
     fam = ModelFamily(lambda t: t - 100.0, lambda t: -0.5 * (t - 100.0) ** 2, probe_days=0.5)
     fam.opt = dataclasses.replace(fam.opt, max_points=6)

@@ -415,6 +415,20 @@ class MaximumSearch:
                      "another branch: the step is retried shorter")
         return bool(against)
 
+    def hides_roots(self, a: FixedTimePoint, b: FixedTimePoint) -> bool:
+        """Two solved points with no fold between them whose m_f and φ fit no monotone m_f
+        (:func:`hidden_slope`, by more than ``jump_tol`` relative in m_f across them): φ likely
+        changes sign twice between them. At ε_f only, where the envelope relation holds (at
+        ε > 0 it fails by O(ε), :meth:`branch_jump`). Logged."""
+        a, b = sorted((a, b), key=lambda q: q.tf)
+        if self.family.eps != self.family.eps_f:
+            return False
+        hidden = hidden_slope(a, b) * (b.tf - a.tf) > self.opt.jump_tol * abs(a.m_f)
+        if hidden:
+            self.log(f"  t_f {self.days(a.tf):.5f}-{self.days(b.tf):.5f} d: m_f and phi fit no monotone m_f, "
+                     "a pair of roots of phi likely between")
+        return hidden
+
     def march(self, trail: list[FixedTimePoint], direction: float):
         """From the last point of ``trail`` in ``direction`` by steps of the trail's last spacing
         (at most δ; halved where Newton fails, down to δ/8, and kept; at the lifted ε of
@@ -455,12 +469,13 @@ class MaximumSearch:
         of the family, not the piece the step follows. Near a fold the tangent has almost no t_f
         component, so that hyperplane runs almost along t_f (E8 full 450 on the exact map, a step
         of 4 secants at the fold at 289.740 d converged 2.7 d away, at 292.470 d;
-        docs/perturbed-e6-e7-e8.md, "fifty-ninth session"). A step with no fold whose m_f moves
-        against the sign φ has at both its ends (:meth:`branch_jump`; at ε_f only, where the
-        envelope relation holds) counts as a failure too: φ changed sign an even number of times
-        inside it, so it stepped over a maximum and a minimum, or it left the sheet (E7 full
-        model, 1 N: a step of 8 secants from 87.392 to 87.867 d, φ < 0 at both, m_f 2.4 g lower,
-        passed over the heaviest maximum within 1 d, 87.565 d; "sixty-sixth session").
+        docs/perturbed-e6-e7-e8.md, "fifty-ninth session"). A step with no fold whose m_f and φ at
+        its ends fit no monotone m_f (:meth:`hides_roots`, at ε_f only) counts as a failure too:
+        φ likely changed sign twice inside it, so it stepped over a maximum and a minimum, or it
+        left the sheet. E7 full model, 1 N: a step of 8 secants from 87.392 to 87.867 d, φ < 0 at
+        both, m_f 2.4 g lower, passed over the heaviest maximum within 1 d, 87.565 d
+        ("sixty-sixth session"); from 87.828 to 88.069 d, φ > 0 at both and m_f falling, but
+        far less than φ at 88.069 d says, it passed over the 87.934 d one ("sixty-seventh").
         ``fold``: the tangent's t_f component changed sign between the two points (a fold in
         t_f passed)."""
         fam = self.family
@@ -485,7 +500,7 @@ class MaximumSearch:
             if p is not None:
                 w = unit(fam.tangent(p), p.x - last.x)
                 fold = bool(np.sign(w[-1]) != np.sign(v[-1]))
-                if not fold and fam.eps == fam.eps_f and self.branch_jump(last, p, np.sign(p.tf - last.tf)):
+                if not fold and self.hides_roots(last, p):
                     p = None
             if p is None:
                 self.log(f"  arclength step {h / h_secant:.3g} of the secant failed")
@@ -656,10 +671,9 @@ class MaximumSearch:
         """The crossings of φ from − to + in [left, right] that its solves reveal, as solved
         points, heaviest first. Brent first; then the bracket's solved points are read again in
         order of t_f: a neighbouring pair with φ from − to + and no root yet between them is
-        another crossing, solved by Brent in turn; a pair with φ of one sign whose values of m_f
-        and φ fit no monotone m_f (:func:`hidden_slope`, at ε_f only, where the envelope
-        relation holds; a change above ``jump_tol``) likely hides a pair of roots, and its
-        midpoint is solved (at most ``bracket_splits`` of them). A bracket can hold three roots, two maxima
+        another crossing, solved by Brent in turn; a pair whose values of m_f and φ fit no
+        monotone m_f (:meth:`hides_roots`) likely hides a pair of roots, and its midpoint is
+        solved (at most ``bracket_splits`` of them). A bracket can hold three roots, two maxima
         and the minimum between them: E7 full model, 87.54–88.10 d ("sixty-seventh session"),
         where Brent alone returns one maximum or the other by where its iterates fall. The
         starts are interpolated between the bracket's own points only: where the family folds,
@@ -686,8 +700,7 @@ class MaximumSearch:
             pairs = [(a, b) for a, b in zip(ordered, ordered[1:]) if b.tf - a.tf > 2.0 * xtol]
             crossing = next(((a, b) for a, b in pairs if a.phi < 0.0 < b.phi
                              and not any(a.tf <= r.tf <= b.tf for r in roots)), None)
-            hidden = next(((a, b) for a, b in pairs if self.family.eps == self.family.eps_f
-                           and hidden_slope(a, b) * (b.tf - a.tf) > self.opt.jump_tol * abs(a.m_f)),
+            hidden = next(((a, b) for a, b in pairs if self.hides_roots(a, b)),
                           None) if splits < self.opt.bracket_splits else None
             if crossing is not None:
                 self.log(f"  another crossing of phi inside the bracket, {self.days(crossing[0].tf):.5f}"
