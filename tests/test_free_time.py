@@ -282,6 +282,23 @@ def test_a_survey_step_whose_ends_fit_no_monotone_mass_is_retried_shorter():
     assert [p.z[0] for p in s.survey(best)] == pytest.approx([0.0, 0.45], abs=1e-6)
 
 
+def test_a_survey_walk_back_at_a_maximum_it_has_found_ends_there():
+    """A family periodic in u (t_f = 0.2 sin u, φ = 0.3 + sin 2u, m_f periodic too): each walk
+    meets the other maximum once and then comes round to a maximum already found, and ends there
+    rather than going round again until its budget is spent (E7 full model: the upward walk
+    turned back onto itself at 88.562 d and found 87.934 and 87.565 d again)."""
+    phi = lambda u: 0.3 + np.sin(2.0 * u)
+    mass = lambda u: -0.2 * (0.3 * np.sin(u) - (2.0 / 3.0) * np.cos(u) ** 3)
+    fam = FoldFamily(phi, mass, probe_days=0.02, shape=(lambda u: 0.2 * np.sin(u), lambda u: 0.2 * np.cos(u)),
+                     max_points=100)
+    fam.opt = dataclasses.replace(fam.opt, max_arc_step=4.0, survey_days=1.0, survey_max_points=60)
+    s = ft.MaximumSearch(fam, tu=ft.DAY, m0_kg=1.0)
+    best = s.solve(*fam.start(-0.5 * np.arcsin(0.3)))
+    maxima = s.survey(best)
+    assert len(maxima) == 2 and maxima[1].tf == pytest.approx(0.2 * np.sin(np.pi / 2 + 0.5 * np.arcsin(0.3)), abs=1e-6)
+    assert fam.solves < 60
+
+
 def test_the_march_gives_up_after_max_points():
     fam = ModelFamily(lambda t: t - 100.0, lambda t: -0.5 * (t - 100.0) ** 2, probe_days=0.5)
     fam.opt = dataclasses.replace(fam.opt, max_points=6)

@@ -110,6 +110,9 @@ class MaximumOptions:
     # this many days of it, the heaviest returned (MaximumSearch.survey; 0: off)
     survey_max_points: int = 40     # fixed-time solves of the survey each way at most
     jump_tol: float = 1e-9          # a step whose m_f moves against φ's sign by more (relative) left another branch
+    hidden_tol: float = 2e-8        # MaximumSearch.hides_roots: the least m_f change (relative) it reads as a
+    # pair of roots; m_f of a fixed-time point is known to a few mg in E7 (the 87.565 d extremal solved twice:
+    # 853.338530 and 853.338527 kg, 3.5e-9), and at 1e-9 the test split stretches of 0.005 d around it
     bracket_splits: int = 8         # midpoints solved inside a bracket where such a pair of its points hides roots
     verbose: bool = True
     label: str = ""
@@ -417,13 +420,13 @@ class MaximumSearch:
 
     def hides_roots(self, a: FixedTimePoint, b: FixedTimePoint) -> bool:
         """Two solved points with no fold between them whose m_f and φ fit no monotone m_f
-        (:func:`hidden_slope`, by more than ``jump_tol`` relative in m_f across them): φ likely
+        (:func:`hidden_slope`, by more than ``hidden_tol`` relative in m_f across them): φ likely
         changes sign twice between them. At ε_f only, where the envelope relation holds (at
         ε > 0 it fails by O(ε), :meth:`branch_jump`). Logged."""
         a, b = sorted((a, b), key=lambda q: q.tf)
         if self.family.eps != self.family.eps_f:
             return False
-        hidden = hidden_slope(a, b) * (b.tf - a.tf) > self.opt.jump_tol * abs(a.m_f)
+        hidden = hidden_slope(a, b) * (b.tf - a.tf) > self.opt.hidden_tol * abs(a.m_f)
         if hidden:
             self.log(f"  t_f {self.days(a.tf):.5f}-{self.days(b.tf):.5f} d: m_f and phi fit no monotone m_f, "
                      "a pair of roots of phi likely between")
@@ -552,6 +555,11 @@ class MaximumSearch:
         leaves the window (a sheet that comes back into it is not followed) or
         ``survey_max_points`` solves are spent; each crossing of φ from − to + in
         t_f between two points with no fold between them is solved by Brent (:meth:`root`).
+        A walk that brackets a maximum already found (t_f within δ/10, m_f within
+        ``hidden_tol``) has turned back onto the family it came along and ends there: E7 full model, the
+        upward walk from 87.565 d past 87.934 d turned at 88.562 d (a step landed just behind
+        the last point, which reads as a fold) and walked down again through both
+        ("sixty-seventh session").
 
         E8 full 500 on the exact map: the family snakes in t_f with folds 0.1–0.2 d apart, and
         the maxima at 321.52 d and 322.000 d lie on one connected family (m_f 0.6 g apart),
@@ -574,10 +582,17 @@ class MaximumSearch:
                     except _NewtonFailed as exc:
                         self.log(f"  survey: fixed-time Newton failed inside the bracket at t_f {self.days(exc.tf):.5f} d")
                     else:
-                        maxima += roots
-                        for root in roots:
+                        new = [r for r in roots if not any(abs(r.tf - q.tf) <= self.delta / 10
+                                                           and abs(r.m_f - q.m_f) <= self.opt.hidden_tol * abs(q.m_f)
+                                                           for q in maxima)]
+                        maxima += new
+                        for root in new:
                             self.log(f"  survey: a local maximum at t_f {self.days(root.tf):.5f} d, "
                                      f"m_f {root.m_f * self.m0:.6f} kg")
+                        if len(new) < len(roots):
+                            self.log("  survey: back at a maximum already found, the walk has turned back onto "
+                                     "the family it came along: this way ends")
+                            break
                 if abs(p.tf - best.tf) > window:
                     break
         return maxima
