@@ -432,6 +432,10 @@ class MaximumSearch:
                      "a pair of roots of phi likely between")
         return hidden
 
+    def same_extremal(self, p: FixedTimePoint, q: FixedTimePoint) -> bool:
+        """Two solved maxima that are one extremal: t_f within δ/10, m_f within ``hidden_tol``."""
+        return abs(p.tf - q.tf) <= self.delta / 10 and abs(p.m_f - q.m_f) <= self.opt.hidden_tol * abs(q.m_f)
+
     def march(self, trail: list[FixedTimePoint], direction: float):
         """From the last point of ``trail`` in ``direction`` by steps of the trail's last spacing
         (at most δ; halved where Newton fails, down to δ/8, and kept; at the lifted ε of
@@ -582,9 +586,7 @@ class MaximumSearch:
                     except _NewtonFailed as exc:
                         self.log(f"  survey: fixed-time Newton failed inside the bracket at t_f {self.days(exc.tf):.5f} d")
                     else:
-                        new = [r for r in roots if not any(abs(r.tf - q.tf) <= self.delta / 10
-                                                           and abs(r.m_f - q.m_f) <= self.opt.hidden_tol * abs(q.m_f)
-                                                           for q in maxima)]
+                        new = [r for r in roots if not any(self.same_extremal(r, q) for q in maxima)]
                         maxima += new
                         for root in new:
                             self.log(f"  survey: a local maximum at t_f {self.days(root.tf):.5f} d, "
@@ -716,7 +718,7 @@ class MaximumSearch:
             crossing = next(((a, b) for a, b in pairs if a.phi < 0.0 < b.phi
                              and not any(a.tf <= r.tf <= b.tf for r in roots)), None)
             hidden = next(((a, b) for a, b in pairs if self.hides_roots(a, b)),
-                          None) if splits < self.opt.bracket_splits else None
+                          None) if crossing is None and splits < self.opt.bracket_splits else None
             if crossing is not None:
                 self.log(f"  another crossing of phi inside the bracket, {self.days(crossing[0].tf):.5f}"
                          f"-{self.days(crossing[1].tf):.5f} d")
@@ -772,7 +774,8 @@ def maximise_final_mass(sol, options: MaximumOptions | None = None):
                 if len(found) > 1:
                     record["bracket_maxima"] = [[search.days(p.tf), p.m_f * tr.m0, p.phi] for p in found]
                 if opt.survey_days > 0.0:
-                    maxima = search.survey(best) + found[1:]
+                    maxima = search.survey(best)
+                    maxima += [p for p in found[1:] if not any(search.same_extremal(p, q) for q in maxima)]
                     record["survey"] = {"window_days": opt.survey_days, "first_tof_days": search.days(best.tf),
                                         "maxima": [[search.days(p.tf), p.m_f * tr.m0, p.phi]
                                                    for p in sorted(maxima, key=lambda p: p.tf)]}
