@@ -1,9 +1,9 @@
 """E7 full model (4×4 + Moon + Sun, 1 N): the local maxima of m_f(t_f) near the DAG's extremal
 (docs/perturbed-e6-e7-e8.md, "sixty-sixth session").
 
-The DAG's E7 end game certifies the local maximum of m_f in t_f next to the OT solution
-(``perturbed.numerics.tof_maximum``) but does not survey its neighbours, as E8's does
-(``tof_maximum.survey_days``). Sub-commands:
+The end game and survey of E7's config (``perturbed.tof_maximum_settings``: since the
+sixty-seventh session the DAG surveys E7 as E8), with the window ``--days``, from another start
+or on an earlier artifact. Sub-commands:
 
   ot        the survey (``free_time.MaximumSearch.survey``) within ``--days`` of the DAG's
             ``results/perturbed/e7/g44_moon_sun.json``
@@ -18,6 +18,7 @@ import argparse
 import time
 
 from spaceopt import artifacts
+from spaceopt.config import load_yaml
 from spaceopt.indirect import chain
 from spaceopt.indirect.free_time import MaximumOptions, maximise_final_mass
 from spaceopt.studies import perturbed as P, thrust_family as TF
@@ -44,9 +45,9 @@ def main():
     sol = P.load(E7 + "g44_moon_sun.json") if args.start == "ot" else carried_at_eps_f()
     d = TF.describe(sol)
     print(f"start: {d['m_f_kg']:.6f} kg, {d['tof_days']:.5f} d ({time.perf_counter() - t0:.0f} s)", flush=True)
-    best, rec = maximise_final_mass(sol, MaximumOptions(label=args.start, survey_days=args.days,
-                                                        survey_max_points=50, max_arc_step=8.0,
-                                                        downhill_folds=1, max_points=40))
+    settings = {**P.tof_maximum_settings(load_yaml("config/studies/perturbed.yaml")["perturbed"], "e7"),
+                "survey_days": args.days}
+    best, rec = maximise_final_mass(sol, MaximumOptions(label=args.start, **settings))
     d = TF.describe(best)
     maxima = [(round(float(t), 5), round(float(m), 6), float(p)) for t, m, p in rec.get("survey", {}).get("maxima", [])]
     print(f"heaviest maximum: {d['m_f_kg']:.6f} kg, {d['tof_days']:.5f} d; maxima (t_f d, m_f kg, phi): {maxima} "
