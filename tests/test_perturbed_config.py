@@ -1522,7 +1522,8 @@ def test_the_thrust_family_settings_are_read_and_each_bad_one_is_one_line():
     assert TF.settings({**PC, "run": ["e9"]}) == {}
     assert tf["e7"]["carry_from"] == {"g44_moon_sun": "j2"}
     assert TF.settings({**PC, "thrust_family": {"e7": {"thrusts_N": [0.5]}}}) == {
-        "e7": {"thrusts_N": [0.5], "eps": 1e-2, "models": ["unperturbed"], "max_steps": 2000, "carry_from": {}}}
+        "e7": {"thrusts_N": [0.5], "eps": 1e-2, "models": ["unperturbed"], "max_steps": 2000, "carry_from": {},
+               "hops": None}}
     for family, match in (({"e10": {"thrusts_N": [0.5]}}, r"thrust_family.e10='e10'.*not a case"),
                           ({"e7": [0.5]}, r"thrust_family.e7=\[0.5\].*mapping"),
                           ({"e7": {"thrusts_N": 0.5}}, r"thrust_family.e7.thrusts_N=0.5.*list"),
@@ -1539,7 +1540,8 @@ def test_the_thrust_family_settings_are_read_and_each_bad_one_is_one_line():
                           ({"e7": {"thrusts_N": [0.5], "models": ["j2"], "carry_from": {"g44_moon_sun": "unperturbed"}}},
                            r"thrust_family.e7.carry_from.g44_moon_sun='unperturbed'.*another of the family's models"),
                           ({"e7": {"thrusts_N": [0.5], "models": ["j2"], "carry_from": {"j2": "j2"}}},
-                           r"thrust_family.e7.carry_from.j2='j2'")):
+                           r"thrust_family.e7.carry_from.j2='j2'"),
+                          ({"e7": {"thrusts_N": [0.5], "hops": {"step_N": -0.1}}}, r"thrust_family.e7.hops.step_N=-0.1.*positive")):
         with pytest.raises(ConfigError, match=match) as exc:
             TF.settings({**PC, "thrust_family": family})
         assert "\n" not in str(exc.value)

@@ -9,7 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from spaceopt.errors import ConvergenceError
+from spaceopt.errors import ConfigError, ConvergenceError
 from spaceopt.indirect.continuation import ContinuationOptions
 from spaceopt.indirect.shooting import residual
 from spaceopt.studies import perturbed as P, thrust_family as TF, verify
@@ -216,3 +216,92 @@ def test_the_family_job_resumes_without_the_seeds_it_gave_up_and_a_failed_job_tr
     with pytest.raises(KeyboardInterrupt):
         job.main(sm)
     assert seen == [{}, {"0.9": "fold"}, {}]
+
+
+HOPS = {**TF.HOP_DEFAULTS, "step_N": 0.06, "probe_days": 0.002}
+
+
+@pytest.fixture(scope="module")
+def hopped(carried):
+    """The carried 2×2 family's 14 N point hopped to 13.9 N (:func:`TF.hop`), t_f predicted on the
+    secant of its 15 and 14 N points."""
+    first, pts = carried[1], carried[2]
+    tof = TF.predicted_tof(pts, 13.9, 1e-2)
+    return tof, TF.hop(first, 13.9, tof, ContinuationOptions(max_steps=30, verbose=False), HOPS, "hop")
+
+
+def test_a_hop_lands_on_the_extremal_that_the_path_in_the_thrust_reaches(carried, hopped):
+    """Where the family has no fold the hop (the fixed-time path in (T, t_f), then the end game in
+    t_f) and the path in the thrust reach one free-time extremal: the same t_f and m_f, the hop's
+    a root of every free-time row but p_t(K_f), which its end game brings to a crossing."""
+    last = carried[-1][0]
+    tof, sol = hopped
+    assert (sol.thrust_N, sol.prm["eps_final"]) == (13.9, 1e-2) == (sol.transfer.thrust, sol.transfer.eps_final)
+    assert not sol.shooting.fixed_time and sol.transfer.perturbations == G22_ERA
+    here, there = TF.describe(sol), TF.describe(last)
+    assert here["tof_days"] == pytest.approx(there["tof_days"], abs=2e-5)      # 2.1e-6 d
+    assert here["m_f_kg"] == pytest.approx(there["m_f_kg"], abs=1e-4)          # 7.8 mg
+    f, ok = residual(sol.shooting, jnp.asarray(sol.z), 1.0, sol.transfer.params(thrust=13.9))
+    rows = np.asarray(f)
+    pt = sol.shooting.residual_names().index("p_t(K_f)")
+    assert np.linalg.norm(np.delete(rows, pt)) < 1e-7 and abs(rows[pt]) < 1e-5
+    game = sol.stats["end_game"]
+    assert game["t0_days"] == pytest.approx(tof, abs=1e-6) and game["tof_days"] == pytest.approx(here["tof_days"], abs=1e-7)
+    assert sol.stats["jacobian_evaluations"] > game["jacobian_evaluations"] > 0
+
+
+@pytest.fixture
+def fake_hops(carried, monkeypatch):
+    """follow() from the carried 14 N point with its path in the thrust failing and :func:`TF.hop`
+    replaced by one that keeps the unknowns and fails over more than 0.035 N: (the calls of the
+    hop as (from, to) thrusts, follow with these two in place)."""
+    from spaceopt.indirect import chain
+    first, pts = carried[1], carried[2]
+    calls = []
+
+    def path(sol, prm, options, label, path="tau"):
+        assert "/T " in label, "the hops must not call the path in the thrust"
+        raise ConvergenceError(f"{label}: step-size underflow", {"reason": "underflow"})
+
+    def hop(sol, T, tof, options, hops, label):
+        calls.append((sol.thrust_N, T))
+        if sol.thrust_N - T > 0.035:
+            raise ConvergenceError(f"{label}: no crossing", {"reason": "hop end game"})
+        return dataclasses.replace(TF.at_thrust(sol, T, 1e-2), stats={"steps": 1, "end_game": {"tof_days": tof}})
+    monkeypatch.setattr(chain, "continue_in_params", path)
+    monkeypatch.setattr(TF, "hop", hop)
+    return calls, lambda thrusts, hops, points=pts, start=first: TF.follow(start, thrusts, 1e-2, None, "f", points,
+                                                                         hops=hops)
+
+
+def test_a_failed_step_in_the_thrust_hands_over_to_hops_that_shrink_and_grow(fake_hops):
+    """The step to 13.9 N fails; the hops go on from 14 N: halved where one fails, doubled again
+    after each that arrives, through 13.9 N and on to 13.85 N without the path in the thrust."""
+    calls, follow = fake_hops
+    last, points, stop = follow([13.9, 13.85], HOPS)
+    assert calls == [(14.0, 13.94), (14.0, 13.97), (13.97, 13.91), (13.97, 13.94), (13.94, 13.9), (13.94, 13.91),
+                     (13.91, 13.9), (13.9, 13.85), (13.9, 13.87), (13.87, 13.85)]
+    assert stop == "" and last.thrust_N == 13.85
+    assert [(p["thrust_N"], p["hop"]) for p in points[2:]] == [(13.97, True), (13.94, True), (13.91, True), (13.9, True),
+                                                              (13.87, True), (13.85, True)]
+    assert [p["hop"] for p in points[:2]] == [False, False] and "end_game" in points[-1]
+
+
+def test_hops_that_fail_down_to_the_least_step_stop_the_family_and_a_resumed_hop_hops_on(fake_hops):
+    calls, follow = fake_hops
+    last, points, stop = follow([13.9], {**HOPS, "min_step_N": 0.04})
+    assert calls == [(14.0, 13.94)] and last.thrust_N == 14.0 and len(points) == 2
+    assert stop.startswith("T 13.9 N not reached: the hop to 13.94 N failed with steps down to 0.06 N")
+    calls.clear()
+    resumed = [*points, {**points[-1], "thrust_N": 13.93, "hop": True}]
+    last, points, stop = follow([13.9], HOPS, resumed, TF.at_thrust(last, 13.93, 1e-2))
+    assert calls == [(13.93, 13.9)] and stop == "" and points[-1]["thrust_N"] == 13.9
+
+
+def test_the_hop_settings_default_and_name_a_bad_key():
+    assert TF.hop_settings(None, "k") is None
+    assert TF.hop_settings({"step_N": 0.05}, "k") == {**TF.HOP_DEFAULTS, "step_N": 0.05}
+    for bad, key in (({"step": 1}, "k.step"), ({"min_step_N": 0.1}, "k.min_step_N"), ({"probe_days": 0}, "k.probe_days"),
+                     ({"max_points": 2.5}, "k.max_points"), ([0.02], "k")):
+        with pytest.raises(ConfigError, match=f"^{key.replace('.', '[.]')}"):
+            TF.hop_settings(bad, "k")

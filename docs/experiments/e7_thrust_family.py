@@ -24,6 +24,11 @@ script now calls for the continuation and the per-point scalars).
                      results/perturbed/e7/family_<model>.json: its least-thrust point, or a
                      checkpoint's point.json), the path corrector's tolerance TOL_STEP if given
                      (default 1e-4)
+  hop PATH T1,T2,… [STEP_N]
+                     the family continued on down from a saved family point (as ``below``) by
+                     branch hops only (``thrust_family.hop_down``, hops of at most STEP_N,
+                     default ``HOP_DEFAULTS``), each t_f predicted from the last two points of
+                     the artifact's family; the end games logged
   model PATH MODEL   that saved point carried to the force model MODEL at its thrust and ε by
                      the model blend (``chain.continue_in_model``; run where results/ has E7's
                      ephemeris window)
@@ -33,6 +38,7 @@ script now calls for the continuation and the per-point scalars).
     .venv/bin/python docs/experiments/e7_thrust_family.py family 2 60,35,26,21,18.5,17.6,17,16,15,14.9,14.85
     .venv/bin/python docs/experiments/e7_thrust_family.py bound 2 60
     .venv/bin/python docs/experiments/e7_thrust_family.py below results/perturbed/e7/family_unperturbed.json 0.298,0.296
+    .venv/bin/python docs/experiments/e7_thrust_family.py hop results/perturbed/e7/family_g44_moon_sun.json 0.6,0.5
     .venv/bin/python docs/experiments/e7_thrust_family.py family 100 1,0.8,0.6,0.5,0.45,0.4,0.37,0.35,0.33,0.32,0.31,0.3 1e-2
     .venv/bin/python docs/experiments/e7_thrust_family.py family 100 1,0.6,0.45,0.37,0.33,0.32,0.31 1e-2 j2
 
@@ -48,6 +54,7 @@ import jax
 import yaml
 
 jax.config.update("jax_enable_x64", True)
+from spaceopt import artifacts  # noqa: E402
 from spaceopt.errors import ConvergenceError  # noqa: E402
 from spaceopt.indirect import chain  # noqa: E402
 from spaceopt.indirect.continuation import ContinuationOptions  # noqa: E402
@@ -96,6 +103,26 @@ def below(path, thrusts, tol_step=None):
     follow(sol, [float(x) for x in thrusts.split(",")], float(sol.prm["eps_final"]), "below", options)
 
 
+def hop(path, thrusts, step_N=None):
+    """The family point saved at ``path`` (a family artifact or checkpoint, its points in the extra)
+    hopped on down through ``thrusts`` (:func:`thrust_family.hop_down`)."""
+    sol = P.load(path)
+    points = list(artifacts.read_json(path)["extra"]["family"]["points"])
+    hops = TF.hop_settings({} if step_N is None else {"step_N": float(step_N)}, "hops")
+    eps = float(sol.prm["eps_final"])
+
+    def reached(s, stats, wall_s):
+        points.append(TF.point(s, stats, wall_s))
+        show(s, points[-1])
+        print(f"  the hop's end game: from {stats['end_game']['t0_days']:.5f} d to {stats['end_game']['tof_days']:.5f} d, "
+              f"{stats['end_game']['fixed_time_solves']} solves; {stats['jacobian_evaluations']} Jacobians", flush=True)
+    for T in (float(x) for x in thrusts.split(",")):
+        sol, stop = TF.hop_down(sol, T, eps, ContinuationOptions(), hops, "hop", points, reached)
+        if stop:
+            print(f"stopped: {stop}", flush=True)
+            return
+
+
 def model(path, name):
     """The family point saved at ``path`` carried to the force model ``name`` at its thrust and ε by
     the model blend (``chain.continue_in_model``, arclength)."""
@@ -126,4 +153,4 @@ def bound(n_rev, thrust_N):
 
 
 if __name__ == "__main__":
-    {"family": family, "below": below, "model": model, "bound": bound}[sys.argv[1]](*sys.argv[2:])
+    {"family": family, "below": below, "hop": hop, "model": model, "bound": bound}[sys.argv[1]](*sys.argv[2:])

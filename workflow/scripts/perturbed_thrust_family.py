@@ -85,7 +85,7 @@ def main(sm):
     elif not resumed:
         sol = P.load(sm.input.ot)
     below = [T for T in fam["thrusts_N"] if T < sol.thrust_N * (1 - 1e-12)]
-    last, points, stop = TF.follow(sol, below, fam["eps"], options, label, points, checkpoint)
+    last, points, stop = TF.follow(sol, below, fam["eps"], options, label, points, checkpoint, fam["hops"])
     if stop:
         print(f"[{label}] stopped: {stop}", file=sys.stderr, flush=True)
     P.save(last, out, cfg, time.perf_counter() - t0 + before, record(points, stop),

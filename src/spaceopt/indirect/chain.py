@@ -380,8 +380,9 @@ def solve_ot_from_tmin(tmin: Solution, thrust_N: float, options=None, label="ot"
     return Solution("ot", sh_eps, z, prm, tr, stats, thrust_N=thrust_N)
 
 
-# problem data that continue_in_params moves along a path (the departure-epoch offset: E6 dates)
-PATH_DATA = ("thrust", "L0", "Lf", "c", "epoch_offset_s")
+# problem data that continue_in_params moves along a path (the departure-epoch offset: E6 dates;
+# t_f of a fixed-time problem: a thrust family's hop, studies.thrust_family.hop)
+PATH_DATA = ("thrust", "L0", "Lf", "c", "epoch_offset_s", "tf")
 
 
 def _on_map_of(sol: Solution, prm_to: dict) -> dict:

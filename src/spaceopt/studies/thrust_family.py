@@ -33,10 +33,24 @@ docs/perturbed-e6-e7-e8.md, sixty-fifth session). Each J2 point carried lands on
 extremal of the full model near the J2 point's t_f (scratch: 14–15 Jacobians at 0.8 and 0.6 N,
 146 at 0.30 N), where a time-independent model's family (J2, unperturbed: p_t ≡ 0) runs on one
 branch.
+
+With ``hops`` a family whose step in the thrust fails goes on by branch hops (:func:`hop`): the
+last point moved to a thrust a little lower on the **fixed-time** map, t_f moved along the
+secant of the family's last two points in (T, t_f) (that map has no row p_t(K_f) = 0, so no
+fold where a pair of its roots merges), then the free-time end game there
+(``spaceopt.indirect.free_time``) to the nearest crossing of φ = p_t(K_f) from − to + in t_f:
+a free-time extremal of the new thrust, on whatever branch is nearest. The hops shrink where
+one fails (halved down to ``min_step_N``) and grow again after each success (doubled up to
+``step_N``); every point reached by a hop is a point of the family (``hop`` true). At ε > 0 the
+envelope relation dm_f/dt_f = −m₀φ holds only to O(ε) (``free_time.MaximumSearch.branch_jump``),
+so the end game's checks of m_f against φ are off there, and "nearest maximum" means a crossing of φ
+from − to +, the free-time condition's, not a certified maximum of the smoothed problem's cost
+(there is none: docs/perturbed-e6-e7-e8.md, "thirty-fifth session").
 """
 from __future__ import annotations
 
 import dataclasses
+import sys
 import time
 from typing import TYPE_CHECKING, Callable
 
@@ -49,16 +63,18 @@ if TYPE_CHECKING:
     from ..indirect.transfer import Transfer
 
 COLUMNS = ("case", "model", "start", "thrust_N", "eps", "m_f_kg", "propellant_kg", "tof_days", "max_apogee_km", "max_e",
-           "least_radius_km", "duty", "steps", "jacobians", "wall_s")
+           "least_radius_km", "duty", "steps", "jacobians", "wall_s", "hop")
+HOP_DEFAULTS = {"step_N": 0.02, "min_step_N": 0.0025, "probe_days": 0.1, "max_points": 24}
 
 
 def settings(pc: dict) -> dict[str, dict]:
-    """{case: {thrusts_N, eps, models, max_steps, carry_from}} of ``perturbed.thrust_family`` for
-    the cases that are run (eps default 1e-2, models default the case's first, carry_from default
-    none; the Snakefile plans with it). ConfigError naming the key where a case is unknown, the
-    thrusts do not fall strictly from below the case's thrust to above 0, ε is not in (0, 1), a
-    model is not one of the case's, max_steps is not a positive integer, or carry_from is not a
-    mapping {model of the case: another model of the family}."""
+    """{case: {thrusts_N, eps, models, max_steps, carry_from, hops}} of ``perturbed.thrust_family``
+    for the cases that are run (eps default 1e-2, models default the case's first, carry_from
+    default none, hops default off; the Snakefile plans with it). ConfigError naming the key
+    where a case is unknown, the thrusts do not fall strictly from below the case's thrust to
+    above 0, ε is not in (0, 1), a model is not one of the case's, max_steps is not a positive
+    integer, carry_from is not a mapping {model of the case: another model of the family}, or
+    hops is not as :func:`hop_settings` reads it."""
     from .multirev_config import number      # (loads JAX: not at import, for the report jobs)
     out = {}
     for case, s in (pc.get("thrust_family") or {}).items():
@@ -97,7 +113,30 @@ def settings(pc: dict) -> dict[str, dict]:
             if seed not in models or seed == m:
                 raise ConfigError(f"{key}.carry_from.{m}", seed, "must be another of the family's models")
         out[case] = {"thrusts_N": thrusts, "eps": eps, "models": list(models), "max_steps": max_steps,
-                     "carry_from": dict(carry)}
+                     "carry_from": dict(carry), "hops": hop_settings(s.get("hops"), f"{key}.hops")}
+    return out
+
+
+def hop_settings(hops, key: str) -> dict | None:
+    """``hops`` ({step_N, min_step_N, probe_days, max_points}, each defaulting to
+    :data:`HOP_DEFAULTS`; null: off) checked: ConfigError naming the key where it is no mapping,
+    has another key, a step or probe is not positive, min_step_N exceeds step_N, or max_points
+    is not a positive integer."""
+    from .multirev_config import number
+    if hops is None:
+        return None
+    if not isinstance(hops, dict):
+        raise ConfigError(key, hops, f"must be a mapping of {', '.join(HOP_DEFAULTS)} (or null: off)")
+    unknown = sorted(set(hops) - set(HOP_DEFAULTS))
+    if unknown:
+        raise ConfigError(f"{key}.{unknown[0]}", hops[unknown[0]], f"not a hop setting (expected {', '.join(HOP_DEFAULTS)})")
+    out = {**HOP_DEFAULTS, **hops}
+    for k in ("step_N", "min_step_N", "probe_days"):
+        out[k] = number(out, k, key, positive=True)
+    if out["min_step_N"] > out["step_N"]:
+        raise ConfigError(f"{key}.min_step_N", out["min_step_N"], f"must not exceed step_N ({out['step_N']:g})")
+    if not isinstance(out["max_points"], int) or isinstance(out["max_points"], bool) or out["max_points"] < 1:
+        raise ConfigError(f"{key}.max_points", out["max_points"], "must be a positive integer")
     return out
 
 
@@ -122,10 +161,13 @@ def describe(sol: Solution, samples_per_rev: int = 400) -> dict:
 
 
 def point(sol: Solution, stats: dict, wall_s: float) -> dict:
-    """One point of a family: the thrust, ε, :func:`describe`, the cost of the path to it, and
-    the unknowns ``z`` (so that another model's family can start from it, :func:`seeds`)."""
+    """One point of a family: the thrust, ε, :func:`describe`, the cost of the path to it, whether
+    a hop reached it (and the hop's end game, ``stats['end_game']``), and the unknowns ``z`` (so
+    that another model's family can start from it, :func:`seeds`)."""
+    end_game = stats.get("end_game")
     return {"thrust_N": sol.thrust_N, "eps": float(sol.prm["eps_final"]), **describe(sol),
             "steps": stats.get("steps", 0), "jacobians": stats.get("jacobian_evaluations", 0), "wall_s": wall_s,
+            "hop": end_game is not None, **({"end_game": end_game} if end_game is not None else {}),
             "z": [float(v) for v in sol.z]}
 
 
@@ -176,8 +218,68 @@ def carry_points(seed_points: list[Solution], tr: Transfer, options, label: str,
     return last, points, not_carried
 
 
+def hop(sol: Solution, thrust_N: float, tof_days: float, options, hops: dict, label: str) -> Solution:
+    """The family point ``sol`` (a free-time OT solution at its thrust and ε) hopped to
+    ``thrust_N``: moved there on the fixed-time map (t(K_f) = t_f in place of p_t(K_f) = 0),
+    t_f moved linearly with T from the point's own to ``tof_days``, in arclength
+    (``chain.continue_in_params``); then the free-time end game at ``thrust_N`` from there
+    (``free_time.maximise_final_mass``: probes ``probe_days`` apart, the march in t_f, Brent; at
+    most ``max_points`` fixed-time solves; no survey, no lift, the checks of m_f against φ off,
+    as the family's ε is > 0), to the nearest crossing of φ from − to +. The fixed-time extremal
+    there, relabelled at ``thrust_N``; its stats hold the path's steps, the Jacobians of both
+    parts and the end game's record (``end_game``: where it started and ended, its solves).
+    ConvergenceError where the path does not arrive or the end game finds no crossing."""
+    from ..constants import DAY
+    from ..indirect import chain
+    from ..indirect.free_time import MaximumOptions, maximise_final_mass
+    from ..indirect.transfer import datum
+    eps, tu = float(sol.prm["eps_final"]), sol.transfer.tu
+    fixed = dataclasses.replace(sol, shooting=dataclasses.replace(sol.shooting, fixed_time=True),
+                                prm={**sol.prm, "tf": datum(tof_of(sol) * DAY / tu)})
+    target = {**at_thrust(sol, thrust_N, eps).prm, "tf": datum(tof_days * DAY / tu)}
+    moved = chain.continue_in_params(fixed, target, options, label=f"{label} fixed time", path="arclength")
+    free = dataclasses.replace(at_thrust(sol, thrust_N, eps), z=moved.z)
+    verbose = options.verbose if options is not None else True
+    out, record = maximise_final_mass(free, MaximumOptions(
+        probe_days=hops["probe_days"], max_points=hops["max_points"], lift_eps=0.0, jump_tol=np.inf,
+        hidden_tol=np.inf, verbose=verbose, label=f"{label} end game"))
+    if not record["certified"]:
+        raise ConvergenceError(f"{label}: no crossing of p_t(K_f) from - to + in t_f at {thrust_N:g} N "
+                               f"({record['status']})", {"reason": "hop end game", "end_game": record})
+    end_game = {k: record[k] for k in ("t0_days", "tof_days", "phi", "fixed_time_solves", "jacobian_evaluations",
+                                       "wall_time_s")}
+    stats = {"steps": moved.stats.get("steps", 0), "end_game": end_game,
+             "jacobian_evaluations": moved.stats.get("jacobian_evaluations", 0) + record["jacobian_evaluations"]}
+    return dataclasses.replace(at_thrust(out, thrust_N, eps), stats=stats)
+
+
+def tof_of(sol: Solution) -> float:
+    """t(K_f) of the solution ``sol``, in days."""
+    import jax.numpy as jnp
+
+    from ..constants import DAY
+    from ..indirect import hamiltonians as hm
+    from ..indirect.shooting import final_state
+    yf, ok = final_state(sol.shooting, jnp.asarray(sol.z), sol.tau, sol.prm)
+    if not bool(ok):
+        raise ConvergenceError("the propagation of a family point failed", {"reason": "propagation"})
+    return float(yf[hm.TIME]) * sol.transfer.tu / DAY
+
+
+def predicted_tof(points: list, thrust_N: float, eps: float) -> float:
+    """Δt at ``thrust_N`` on the secant in (T, Δt) through the family's last two points at ε
+    (the last point's Δt where it has one only)."""
+    at_eps = [p for p in points if np.isclose(p["eps"], eps, rtol=1e-12, atol=0)]
+    if len(at_eps) < 2 or at_eps[-1]["thrust_N"] == at_eps[-2]["thrust_N"]:
+        return at_eps[-1]["tof_days"]
+    a, b = at_eps[-2], at_eps[-1]
+    slope = (b["tof_days"] - a["tof_days"]) / (b["thrust_N"] - a["thrust_N"])
+    return b["tof_days"] + slope * (thrust_N - b["thrust_N"])
+
+
 def follow(sol: Solution, thrusts_N: list, eps: float, options, label: str, points: list | None = None,
-           on_point: Callable[[Solution, list], None] | None = None) -> tuple[Solution, list, str]:
+           on_point: Callable[[Solution, list], None] | None = None, hops: dict | None = None
+           ) -> tuple[Solution, list, str]:
     """The family of the OT solution ``sol`` down through ``thrusts_N`` at ε = ``eps``: (its last
     solution, the points, the reason it stopped: '' where it reached the last thrust).
 
@@ -186,7 +288,10 @@ def follow(sol: Solution, thrusts_N: list, eps: float, options, label: str, poin
     to ``eps`` where that differs. Each point (:func:`describe` plus the thrust, ε and the cost
     of its path) is appended as it is reached, and the solution and all the points go to
     ``on_point`` (a checkpoint). A step that does not arrive (``ConvergenceError``, also the move
-    in ε) is the stop, not raised: the least thrust reached stays the bound."""
+    in ε) is the stop, not raised: the least thrust reached stays the bound. With ``hops``
+    (:func:`hop_settings`) a step in the thrust that does not arrive hands over to branch hops
+    (:func:`hop_down`), which go on through the remaining thrusts; a family resumed at a point
+    that a hop reached goes on by hops."""
     from ..indirect import chain
     points = list(points or [])
 
@@ -206,24 +311,66 @@ def follow(sol: Solution, thrusts_N: list, eps: float, options, label: str, poin
             return sol, points, f"eps {eps:g} not reached: {exc}"
         sol = at_thrust(moved, sol.thrust_N, eps)
         reached(sol, moved.stats, time.perf_counter() - t0)
+    hopping = hops is not None and points[-1].get("hop", False)
     for T in thrusts_N:
+        if not hopping:
+            t0 = time.perf_counter()
+            try:
+                moved = chain.continue_in_params(sol, at_thrust(sol, T, eps).prm, options, label=f"{label}/T {T:g} N",
+                                                 path="arclength")
+            except ConvergenceError as exc:
+                if hops is None:
+                    return sol, points, f"T {T:g} N not reached: {exc}"
+                hopping = True
+                _log(options, f"[{label}] T {T:g} N not reached ({exc}); on by hops from {sol.thrust_N:g} N")
+            else:
+                sol = at_thrust(moved, T, eps)
+                reached(sol, moved.stats, time.perf_counter() - t0)
+                continue
+        sol, stop = hop_down(sol, T, eps, options, hops, label, points, reached)
+        if stop:
+            return sol, points, stop
+    return sol, points, ""
+
+
+def hop_down(sol: Solution, thrust_N: float, eps: float, options, hops: dict, label: str, points: list,
+             reached: Callable[[Solution, dict, float], None]) -> tuple[Solution, str]:
+    """From the family point ``sol`` down to ``thrust_N`` by :func:`hop`, each to at most
+    ``step_N`` below the last point, its t_f predicted by :func:`predicted_tof`; a hop that fails
+    is retried from the same point at half the step, down to ``min_step_N``, and after each that
+    arrives the step doubles again (up to ``step_N``). Each point reached goes to ``reached``:
+    (the last solution, '' or why ``thrust_N`` was not reached)."""
+    h = hops["step_N"]
+    while sol.thrust_N > thrust_N * (1 + 1e-12):
+        T = max(thrust_N, round(sol.thrust_N - h, 12))
+        tof = predicted_tof(points, T, eps)
         t0 = time.perf_counter()
         try:
-            moved = chain.continue_in_params(sol, at_thrust(sol, T, eps).prm, options, label=f"{label}/T {T:g} N",
-                                             path="arclength")
+            moved = hop(sol, T, tof, options, hops, f"{label}/hop {T:g} N")
         except ConvergenceError as exc:
-            return sol, points, f"T {T:g} N not reached: {exc}"
-        sol = at_thrust(moved, T, eps)
+            if h / 2 < hops["min_step_N"] * (1 - 1e-12):
+                return sol, (f"T {thrust_N:g} N not reached: the hop to {T:g} N failed with steps down to "
+                             f"{h:g} N: {exc}")
+            h /= 2
+            _log(options, f"[{label}] the hop to {T:g} N failed ({exc}); again at a step of {h:g} N")
+            continue
+        sol = moved
         reached(sol, moved.stats, time.perf_counter() - t0)
-    return sol, points, ""
+        h = min(2.0 * h, hops["step_N"])
+    return sol, ""
+
+
+def _log(options, msg: str) -> None:
+    if options is None or options.verbose:
+        print(msg, file=sys.stderr, flush=True)
 
 
 def rows(case: str, payload: dict) -> list[dict]:
     """The table's rows of one family artifact (its ``extra['family']``: the force model, the
     start, 'ot' or 'family_<model>' for a carried family, and the points)."""
     fam = payload["extra"]["family"]
-    return [{"case": case, "model": fam["model"], "start": fam["start"], **{k: p[k] for k in COLUMNS[3:]}}
-            for p in fam["points"]]
+    return [{"case": case, "model": fam["model"], "start": fam["start"], **{k: p[k] for k in COLUMNS[3:-1]},
+             "hop": p.get("hop", False)} for p in fam["points"]]
 
 
 def sentence(rows: list, stops: dict, model_names: dict, checked: dict | None = None) -> str:
