@@ -278,8 +278,8 @@ def thrust_family(rows: list, path, title: str):
     """m_p, Δt, the largest apogee radius and the throttle's duty against the thrust along the
     minimum-fuel families of one case (``thrust_family.csv``'s rows, one line per model and
     start; a family carried from another model's, squares; the point at the OT's own ε, where it
-    differs from the family's, open). The least thrust of each line is an upper bound on T_min
-    (:mod:`spaceopt.studies.thrust_family`)."""
+    differs from the family's, open; a point reached by a branch hop, crossed). The least thrust of
+    each line is an upper bound on T_min (:mod:`spaceopt.studies.thrust_family`)."""
     keys = (("propellant_kg", "m_p, kg"), ("tof_days", "Δt, days"), ("max_apogee_km", "largest apogee, km"),
             ("duty", "duty (m_p c / (T Δt))"))
     fig, axes = plt.subplots(1, 4, figsize=(14, 3.6))
@@ -296,6 +296,10 @@ def thrust_family(rows: list, path, title: str):
                     ms=6 if carried else 3, mfc="none" if carried else c, label=label)
             if off:
                 ax.plot([r["thrust_N"] for r in off], [r[k] for r in off], "o", mfc="none", color=c, ms=5)
+            hopped = [r for r in on if r.get("hop")]
+            if hopped:
+                ax.plot([r["thrust_N"] for r in hopped], [r[k] for r in hopped], "x", color=c, ms=7,
+                        label=f"{model}: reached by a branch hop")
     axes[2].set_yscale("log")
     axes[2].axhline(MOON_DISTANCE_KM, color="0.5", lw=0.8, ls=":")
     axes[2].text(axes[2].get_xlim()[1], MOON_DISTANCE_KM, "Moon ", ha="right", va="bottom", fontsize=7, color="0.4")
@@ -303,6 +307,7 @@ def thrust_family(rows: list, path, title: str):
         ax.set_xlabel("thrust T, N")
         ax.set_ylabel(label)
     axes[0].legend(fontsize=7)
-    fig.suptitle(title + " (open: the OT at its own ε)")
+    fig.suptitle(title + " (open: the OT at its own ε" + ("; ×: reached by a branch hop)" if any(r.get("hop") for r in rows)
+                                                          else ")"))
     fig.tight_layout()
     save_figure(fig, path)
