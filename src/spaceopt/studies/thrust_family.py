@@ -239,10 +239,9 @@ def hop(sol: Solution, thrust_N: float, tof_days: float, options, hops: dict, la
     target = {**at_thrust(sol, thrust_N, eps).prm, "tf": datum(tof_days * DAY / tu)}
     moved = chain.continue_in_params(fixed, target, options, label=f"{label} fixed time", path="arclength")
     free = dataclasses.replace(at_thrust(sol, thrust_N, eps), z=moved.z)
-    verbose = options.verbose if options is not None else True
     out, record = maximise_final_mass(free, MaximumOptions(
         probe_days=hops["probe_days"], max_points=hops["max_points"], lift_eps=0.0, jump_tol=np.inf,
-        hidden_tol=np.inf, verbose=verbose, label=f"{label} end game"))
+        hidden_tol=np.inf, verbose=_verbose(options), label=f"{label} end game"))
     if not record["certified"]:
         raise ConvergenceError(f"{label}: no crossing of p_t(K_f) from - to + in t_f at {thrust_N:g} N "
                                f"({record['status']})", {"reason": "hop end game", "end_game": record})
@@ -360,8 +359,13 @@ def hop_down(sol: Solution, thrust_N: float, eps: float, options, hops: dict, la
     return sol, ""
 
 
+def _verbose(options) -> bool:
+    """Whether the paths log: ``options.verbose``, or True without options (their default)."""
+    return options is None or options.verbose
+
+
 def _log(options, msg: str) -> None:
-    if options is None or options.verbose:
+    if _verbose(options):
         print(msg, file=sys.stderr, flush=True)
 
 
