@@ -302,6 +302,6 @@ def test_the_hop_settings_default_and_name_a_bad_key():
     assert TF.hop_settings(None, "k") is None
     assert TF.hop_settings({"step_N": 0.05}, "k") == {**TF.HOP_DEFAULTS, "step_N": 0.05}
     for bad, key in (({"step": 1}, "k.step"), ({"min_step_N": 0.1}, "k.min_step_N"), ({"probe_days": 0}, "k.probe_days"),
-                     ({"max_points": 2.5}, "k.max_points"), ([0.02], "k")):
+                     ({"max_points": 2.5}, "k.max_points"), ({"first_step": -0.3}, "k.first_step"), ([0.02], "k")):
         with pytest.raises(ConfigError, match=f"^{key.replace('.', '[.]')}"):
             TF.hop_settings(bad, "k")

@@ -66,7 +66,7 @@ if TYPE_CHECKING:
 
 COLUMNS = ("case", "model", "start", "thrust_N", "eps", "m_f_kg", "propellant_kg", "tof_days", "max_apogee_km", "max_e",
            "least_radius_km", "duty", "steps", "jacobians", "wall_s", "hop")
-HOP_DEFAULTS = {"step_N": 0.02, "min_step_N": 0.0025, "probe_days": 0.1, "max_points": 24}
+HOP_DEFAULTS = {"step_N": 0.02, "min_step_N": 0.0025, "probe_days": 0.1, "max_points": 24, "first_step": 0.3}
 
 
 def settings(pc: dict) -> dict[str, dict]:
@@ -120,10 +120,10 @@ def settings(pc: dict) -> dict[str, dict]:
 
 
 def hop_settings(hops, key: str) -> dict | None:
-    """``hops`` ({step_N, min_step_N, probe_days, max_points}, each defaulting to
+    """``hops`` ({step_N, min_step_N, probe_days, max_points, first_step}, each defaulting to
     :data:`HOP_DEFAULTS`; null: off) checked: ConfigError naming the key where it is no mapping,
-    has another key, a step or probe is not positive, min_step_N exceeds step_N, or max_points
-    is not a positive integer."""
+    has another key, a step, probe or first step is not positive, min_step_N exceeds step_N, or
+    max_points is not a positive integer."""
     from .multirev_config import number
     if hops is None:
         return None
@@ -133,7 +133,7 @@ def hop_settings(hops, key: str) -> dict | None:
     if unknown:
         raise ConfigError(f"{key}.{unknown[0]}", hops[unknown[0]], f"not a hop setting (expected {', '.join(HOP_DEFAULTS)})")
     out = {**HOP_DEFAULTS, **hops}
-    for k in ("step_N", "min_step_N", "probe_days"):
+    for k in ("step_N", "min_step_N", "probe_days", "first_step"):
         out[k] = number(out, k, key, positive=True)
     if out["min_step_N"] > out["step_N"]:
         raise ConfigError(f"{key}.min_step_N", out["min_step_N"], f"must not exceed step_N ({out['step_N']:g})")
@@ -223,8 +223,8 @@ def carry_points(seed_points: list[Solution], tr: Transfer, options, label: str,
 def hop(sol: Solution, thrust_N: float, tof_days: float, options, hops: dict, label: str) -> Solution:
     """The family point ``sol`` (a free-time OT solution at its thrust and ε) hopped to
     ``thrust_N``: moved there on the fixed-time map (t(K_f) = t_f in place of p_t(K_f) = 0),
-    t_f moved linearly with T from the point's own to ``tof_days``, in arclength
-    (``chain.continue_in_params``); then the free-time end game at ``thrust_N`` from there
+    t_f moved linearly with T from the point's own to ``tof_days``, in arclength from a first
+    step of ``first_step`` (``chain.continue_in_params``); then the free-time end game at ``thrust_N`` from there
     (``free_time.maximise_final_mass``: probes ``probe_days`` apart, the march in t_f, Brent; at
     most ``max_points`` fixed-time solves; no survey, no lift, the checks of m_f against φ off,
     as the family's ε is > 0), to the nearest crossing of φ from − to +. The fixed-time extremal
@@ -239,7 +239,9 @@ def hop(sol: Solution, thrust_N: float, tof_days: float, options, hops: dict, la
     fixed = dataclasses.replace(sol, shooting=dataclasses.replace(sol.shooting, fixed_time=True),
                                 prm={**sol.prm, "tf": datum(tof_of(sol) * DAY / tu)})
     target = {**at_thrust(sol, thrust_N, eps).prm, "tf": datum(tof_days * DAY / tu)}
-    moved = chain.continue_in_params(fixed, target, options, label=f"{label} fixed time", path="arclength")
+    follower = dataclasses.replace(chain.path_options("arclength", options, f"{label} fixed time"),
+                                   h_init=hops["first_step"])
+    moved = chain.continue_in_params(fixed, target, follower, label=f"{label} fixed time", path="arclength")
     free = dataclasses.replace(at_thrust(sol, thrust_N, eps), z=moved.z)
     out, record = maximise_final_mass(free, MaximumOptions(
         probe_days=hops["probe_days"], max_points=hops["max_points"], lift_eps=0.0, jump_tol=np.inf,
