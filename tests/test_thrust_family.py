@@ -161,15 +161,19 @@ def test_the_rows_and_the_sentence_name_each_bound_and_its_stop():
     assert list(rows[0]) == list(TF.COLUMNS) and [r["thrust_N"] for r in rows] == [1.0, 1.0, 0.3]
     j2 = [{**r, "model": "j2", "thrust_N": r["thrust_N"] + 0.01} for r in rows]
     full = [{**rows[-1], "model": "g44_moon_sun", "start": "family_j2", "thrust_N": 0.31, "m_f_kg": 670.9}]
+    own = [{**r, "model": "g44_moon_sun", "thrust_N": t, "hop": str(h)}      # as read back from the csv
+           for r, t, h in zip(rows + rows[-1:], (1.0, 1.0, 0.8, 0.78), (False, False, False, True))]
     checked = {("e7", "unperturbed"): {"T_min_N": 0.309072, "T_min_is": "upper bound"}}
     stops = {("e7", "unperturbed", "ot"): "", ("e7", "j2", "ot"): "T 0.3 N not reached: fold",
              ("e7", "g44_moon_sun", "family_j2"): ""}
-    text = TF.sentence(rows + j2 + full, stops, MODEL_TEX, checked)
+    text = TF.sentence(rows + j2 + full + own, {**stops, ("e7", "g44_moon_sun", "ot"): ""}, MODEL_TEX, checked)
     assert ("unperturbed $T_{min} \\le$ 0.3~N ($m_f$ 668.3~kg, $\\Delta t$ 192.4~d, apogee up to 535\\,422~km; "
             "the last listed thrust; the check above: $\\le$ 0.3091~N)") in text
     assert f"{MODEL_TEX['j2']} $T_{{min}} \\le$ 0.31~N" in text and "the next thrust was not reached" in text
     assert (f"{MODEL_TEX['g44_moon_sun']} (the {MODEL_TEX['j2']} family's points carried to it) $T_{{min}} \\le$ 0.31~N "
             "($m_f$ 670.9~kg") in text
+    assert f"{MODEL_TEX['g44_moon_sun']} $T_{{min}} \\le$ 0.78~N" in text and "the last listed thrust; below 0.8~N by 1 branch hop)" in text
+    assert text.count("branch hop") == 1
     assert TF.sentence([], {}, MODEL_TEX) == ""
 
 

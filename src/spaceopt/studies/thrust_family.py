@@ -384,7 +384,8 @@ def rows(case: str, payload: dict) -> list[dict]:
 def sentence(rows: list, stops: dict, model_names: dict, checked: dict | None = None) -> str:
     """LaTeX for the paper: per case and family (model and start) the least thrust reached (an
     upper bound on T_min), its m_f, Δt and largest apogee there, whether it stopped short
-    (``stops``: (case, model, start) → reason, '' where it reached its last thrust), and the
+    (``stops``: (case, model, start) → reason, '' where it reached its last thrust), from which
+    thrust on and by how many branch hops it went on where hops reached points (``hop``), and the
     existence check's T_min or bound beside it (``checked``: (case, model) → the
     ``existence.csv`` row). '' without rows."""
     parts = []
@@ -401,11 +402,14 @@ def sentence(rows: list, stops: dict, model_names: dict, checked: dict | None = 
             if start != "ot":
                 seed = start.removeprefix("family_")
                 name += f" (the {model_names.get(seed, seed)} family's points carried to it)"
+            hops = sum(str(r.get("hop", False)) == "True" for r in rs)     # a bool, or its text in the csv
+            walked = min(float(r["thrust_N"]) for r in rs if str(r.get("hop", False)) != "True")
+            by_hops = f"; below {walked:g}~N by {hops} branch hop{'s' * (hops > 1)}" if hops else ""
             items.append(f"{name} $T_{{min}} \\le$ {float(last['thrust_N']):g}~N "
                          f"($m_f$ {float(last['m_f_kg']):.1f}~kg, $\\Delta t$ {float(last['tof_days']):.1f}~d, "
                          f"apogee up to {apogee}~km; "
                          + ("the next thrust was not reached" if stops.get((case, model, start)) else "the last listed thrust")
-                         + beside + ")")
+                         + by_hops + beside + ")")
         eps = float(min((r for r in rows if r["case"] == case), key=lambda r: float(r["thrust_N"]))["eps"])
         parts.append(f"{case.upper()}: " + "; ".join(items)
                      + f" (the minimum-fuel family at $\\varepsilon = {eps:g}$ followed down in the thrust: every "
