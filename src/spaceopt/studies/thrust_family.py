@@ -66,7 +66,7 @@ if TYPE_CHECKING:
 
 COLUMNS = ("case", "model", "start", "thrust_N", "eps", "m_f_kg", "propellant_kg", "tof_days", "max_apogee_km", "max_e",
            "least_radius_km", "duty", "steps", "jacobians", "wall_s", "hop")
-HOP_DEFAULTS = {"step_N": 0.02, "min_step_N": 0.0025, "probe_days": 0.1, "max_points": 24, "first_step": 0.3}
+HOP_DEFAULTS = {"step_N": 0.02, "min_step_N": 0.0025, "probe_days": 0.1, "max_points": 24, "first_step": 1.2}
 
 
 def settings(pc: dict) -> dict[str, dict]:
