@@ -46,7 +46,8 @@ Measured (docs/perturbed-e6-e7-e8.md, sixty-third session): at 100 revolutions t
 0.30 N unperturbed and 0.31 N with J2, below the DAG's bounds (0.3091, 0.3110 N), its apogee
 running away (535 000 km at 0.30 N); at 2 revolutions 14.85 N against the bound's 16.16 N.
 ``hop`` from the full model's own family at 0.8 N (sixty-ninth session): 0.6 N in ten hops of
-0.02 N, past the fold near 0.728 N, onto the point carried from J2 (841.223 kg, 91.034 d).
+0.02 N, past the fold near 0.728 N, onto the point carried from J2 (841.223 kg, 91.034 d); with
+``first_step`` 1.2 (seventieth session) on to 0.45 N in 18 hops.
 """
 import dataclasses
 import sys

@@ -47,7 +47,9 @@ so the end game's checks of m_f against φ are off there, and "nearest maximum" 
 from − to +, the free-time condition's, not a certified maximum of the smoothed problem's cost
 (there is none: docs/perturbed-e6-e7-e8.md, "thirty-fifth session"). Measured on E7's full model
 (sixty-ninth session): from the own family's 0.8 N point ten hops of 0.02 N pass the fold near
-0.728 N and reach 0.6 N, where they land on the point carried from J2 (841.223 kg, 91.034 d).
+0.728 N and reach 0.6 N, where they land on the point carried from J2 (841.223 kg, 91.034 d);
+with ``first_step`` 1.2 (seventieth session) the same points in 194 Jacobians instead of 337, and on
+to 0.45 N (the carried point again; at 0.5 N another extremal than the carried one, 0.50 d shorter).
 """
 from __future__ import annotations
 
@@ -224,8 +226,8 @@ def hop(sol: Solution, thrust_N: float, tof_days: float, options, hops: dict, la
     """The family point ``sol`` (a free-time OT solution at its thrust and ε) hopped to
     ``thrust_N``: moved there on the fixed-time map (t(K_f) = t_f in place of p_t(K_f) = 0),
     t_f moved linearly with T from the point's own to ``tof_days``, in arclength from a first
-    step of ``first_step`` (``chain.continue_in_params``); then the free-time end game at ``thrust_N`` from there
-    (``free_time.maximise_final_mass``: probes ``probe_days`` apart, the march in t_f, Brent; at
+    step of ``first_step`` (``chain.continue_in_params``); then the free-time end game at
+    ``thrust_N`` from there (``free_time.maximise_final_mass``: probes ``probe_days`` apart, the march in t_f, Brent; at
     most ``max_points`` fixed-time solves; no survey, no lift, the checks of m_f against φ off,
     as the family's ε is > 0), to the nearest crossing of φ from − to +. The fixed-time extremal
     there, relabelled at ``thrust_N``; its stats hold the path's steps, the Jacobians of both
@@ -402,8 +404,8 @@ def sentence(rows: list, stops: dict, model_names: dict, checked: dict | None = 
             if start != "ot":
                 seed = start.removeprefix("family_")
                 name += f" (the {model_names.get(seed, seed)} family's points carried to it)"
-            hops = sum(str(r.get("hop", False)) == "True" for r in rs)     # a bool, or its text in the csv
-            walked = min(float(r["thrust_N"]) for r in rs if str(r.get("hop", False)) != "True")
+            hopped = [str(r.get("hop", False)) == "True" for r in rs]      # a bool, or its text in the csv
+            hops, walked = sum(hopped), min(float(r["thrust_N"]) for r, h in zip(rs, hopped) if not h)
             by_hops = f"; below {walked:g}~N by {hops} branch hop{'s' * (hops > 1)}" if hops else ""
             items.append(f"{name} $T_{{min}} \\le$ {float(last['thrust_N']):g}~N "
                          f"($m_f$ {float(last['m_f_kg']):.1f}~kg, $\\Delta t$ {float(last['tof_days']):.1f}~d, "
