@@ -24,11 +24,13 @@ script now calls for the continuation and the per-point scalars).
                      results/perturbed/e7/family_<model>.json: its least-thrust point, or a
                      checkpoint's point.json), the path corrector's tolerance TOL_STEP if given
                      (default 1e-4)
-  hop PATH T1,T2,… [STEP_N]
+  hop PATH T1,T2,… [STEP_N [OUT]]
                      the family continued on down from a saved family point (as ``below``) by
                      branch hops only (``thrust_family.hop_down``, hops of at most STEP_N,
-                     default ``HOP_DEFAULTS``), each t_f predicted from the last two points of
-                     the artifact's family; the end games logged
+                     default ``HOP_DEFAULTS``; '-' for the default), each t_f predicted from the
+                     last two points of the artifact's family; the end games logged; each point
+                     reached saved at OUT if given, the family's points in its extra (a ``hop``
+                     from OUT goes on from there)
   model PATH MODEL   that saved point carried to the force model MODEL at its thrust and ε by
                      the model blend (``chain.continue_in_model``; run where results/ has E7's
                      ephemeris window)
@@ -106,12 +108,13 @@ def below(path, thrusts, tol_step=None):
     follow(sol, [float(x) for x in thrusts.split(",")], float(sol.prm["eps_final"]), "below", options)
 
 
-def hop(path, thrusts, step_N=None):
+def hop(path, thrusts, step_N=None, out=None):
     """The family point saved at ``path`` (a family artifact or checkpoint, its points in the extra)
-    hopped on down through ``thrusts`` (:func:`thrust_family.hop_down`)."""
+    hopped on down through ``thrusts`` (:func:`thrust_family.hop_down`), each point reached saved
+    at ``out`` if given."""
     sol = P.load(path)
     points = list(artifacts.read_json(path)["extra"]["family"]["points"])
-    hops = TF.hop_settings({} if step_N is None else {"step_N": float(step_N)}, "hops")
+    hops = TF.hop_settings({} if step_N in (None, "-") else {"step_N": float(step_N)}, "hops")
     eps = float(sol.prm["eps_final"])
 
     def reached(s, stats, wall_s):
@@ -119,6 +122,9 @@ def hop(path, thrusts, step_N=None):
         show(s, points[-1])
         print(f"  the hop's end game: from {stats['end_game']['t0_days']:.5f} d to {stats['end_game']['tof_days']:.5f} d, "
               f"{stats['end_game']['fixed_time_solves']} solves; {stats['jacobian_evaluations']} Jacobians", flush=True)
+        if out is not None:
+            P.save(s, out, {"experiment": "e7_thrust_family hop", "from": path}, wall_s,
+                   {"family": {"points": points}}, samples_per_rev=20)
     for T in (float(x) for x in thrusts.split(",")):
         sol, stop = TF.hop_down(sol, T, eps, ContinuationOptions(), hops, "hop", points, reached)
         if stop:
