@@ -254,6 +254,15 @@ def test_a_hop_lands_on_the_extremal_that_the_path_in_the_thrust_reaches(carried
     assert sol.stats["jacobian_evaluations"] > game["jacobian_evaluations"] > 0
 
 
+def test_a_hop_whose_fixed_time_path_takes_more_than_max_path_steps_fails(carried):
+    """The fixed-time path is given up after ``max_path_steps`` steps (from a first step of 1e-3
+    three steps cannot reach τ = 1), as a ConvergenceError the hops halve on."""
+    first, pts = carried[1], carried[2]
+    capped = {**HOPS, "first_step": 1e-3, "max_path_steps": 3}
+    with pytest.raises(ConvergenceError, match="too many continuation steps"):
+        TF.hop(first, 13.9, TF.predicted_tof(pts, 13.9, 1e-2), ContinuationOptions(verbose=False), capped, "hop")
+
+
 @pytest.fixture
 def fake_hops(carried, monkeypatch):
     """follow() from the carried 14 N point with its path in the thrust failing and :func:`TF.hop`
@@ -306,6 +315,7 @@ def test_the_hop_settings_default_and_name_a_bad_key():
     assert TF.hop_settings(None, "k") is None
     assert TF.hop_settings({"step_N": 0.05}, "k") == {**TF.HOP_DEFAULTS, "step_N": 0.05}
     for bad, key in (({"step": 1}, "k.step"), ({"min_step_N": 0.1}, "k.min_step_N"), ({"probe_days": 0}, "k.probe_days"),
-                     ({"max_points": 2.5}, "k.max_points"), ({"first_step": -0.3}, "k.first_step"), ([0.02], "k")):
+                     ({"max_points": 2.5}, "k.max_points"), ({"first_step": -0.3}, "k.first_step"),
+                     ({"max_path_steps": 0}, "k.max_path_steps"), ([0.02], "k")):
         with pytest.raises(ConfigError, match=f"^{key.replace('.', '[.]')}"):
             TF.hop_settings(bad, "k")

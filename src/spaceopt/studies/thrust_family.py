@@ -68,7 +68,8 @@ if TYPE_CHECKING:
 
 COLUMNS = ("case", "model", "start", "thrust_N", "eps", "m_f_kg", "propellant_kg", "tof_days", "max_apogee_km", "max_e",
            "least_radius_km", "duty", "steps", "jacobians", "wall_s", "hop")
-HOP_DEFAULTS = {"step_N": 0.02, "min_step_N": 0.0025, "probe_days": 0.1, "max_points": 24, "first_step": 1.2}
+HOP_DEFAULTS = {"step_N": 0.02, "min_step_N": 0.0025, "probe_days": 0.1, "max_points": 24, "first_step": 1.2,
+                "max_path_steps": 40}
 
 
 def settings(pc: dict) -> dict[str, dict]:
@@ -122,10 +123,10 @@ def settings(pc: dict) -> dict[str, dict]:
 
 
 def hop_settings(hops, key: str) -> dict | None:
-    """``hops`` ({step_N, min_step_N, probe_days, max_points, first_step}, each defaulting to
-    :data:`HOP_DEFAULTS`; null: off) checked: ConfigError naming the key where it is no mapping,
-    has another key, a step, probe or first step is not positive, min_step_N exceeds step_N, or
-    max_points is not a positive integer."""
+    """``hops`` ({step_N, min_step_N, probe_days, max_points, first_step, max_path_steps}, each
+    defaulting to :data:`HOP_DEFAULTS`; null: off) checked: ConfigError naming the key where it is
+    no mapping, has another key, a step, probe or first step is not positive, min_step_N exceeds
+    step_N, or max_points or max_path_steps is not a positive integer."""
     from .multirev_config import number
     if hops is None:
         return None
@@ -139,8 +140,9 @@ def hop_settings(hops, key: str) -> dict | None:
         out[k] = number(out, k, key, positive=True)
     if out["min_step_N"] > out["step_N"]:
         raise ConfigError(f"{key}.min_step_N", out["min_step_N"], f"must not exceed step_N ({out['step_N']:g})")
-    if not isinstance(out["max_points"], int) or isinstance(out["max_points"], bool) or out["max_points"] < 1:
-        raise ConfigError(f"{key}.max_points", out["max_points"], "must be a positive integer")
+    for k in ("max_points", "max_path_steps"):
+        if not isinstance(out[k], int) or isinstance(out[k], bool) or out[k] < 1:
+            raise ConfigError(f"{key}.{k}", out[k], "must be a positive integer")
     return out
 
 
@@ -226,7 +228,10 @@ def hop(sol: Solution, thrust_N: float, tof_days: float, options, hops: dict, la
     """The family point ``sol`` (a free-time OT solution at its thrust and ε) hopped to
     ``thrust_N``: moved there on the fixed-time map (t(K_f) = t_f in place of p_t(K_f) = 0),
     t_f moved linearly with T from the point's own to ``tof_days``, in arclength from a first
-    step of ``first_step`` (``chain.continue_in_params``); then the free-time end game at
+    step of ``first_step``, given up after ``max_path_steps`` steps (``chain.continue_in_params``;
+    where the predicted t_f is too short for the thrust the path runs off in z at a τ short of 1,
+    dτ/ds → 0, with steps that each pass the corrector: E7 full model, seventy-second session,
+    400 steps and 30 min before the follower's own cap, where an arriving path takes 1–9); then the free-time end game at
     ``thrust_N`` from there (``free_time.maximise_final_mass``: probes ``probe_days`` apart, the march in t_f, Brent; at
     most ``max_points`` fixed-time solves; no survey, no lift, the checks of m_f against φ off,
     as the family's ε is > 0), to the nearest crossing of φ from − to +. The fixed-time extremal
@@ -242,7 +247,7 @@ def hop(sol: Solution, thrust_N: float, tof_days: float, options, hops: dict, la
                                 prm={**sol.prm, "tf": datum(tof_of(sol) * DAY / tu)})
     target = {**at_thrust(sol, thrust_N, eps).prm, "tf": datum(tof_days * DAY / tu)}
     follower = dataclasses.replace(chain.path_options("arclength", options, f"{label} fixed time"),
-                                   h_init=hops["first_step"])
+                                   h_init=hops["first_step"], max_steps=hops["max_path_steps"])
     moved = chain.continue_in_params(fixed, target, follower, label=f"{label} fixed time", path="arclength")
     free = dataclasses.replace(at_thrust(sol, thrust_N, eps), z=moved.z)
     out, record = maximise_final_mass(free, MaximumOptions(
