@@ -288,15 +288,16 @@ def fake_hops(carried, monkeypatch):
 
 
 def test_a_failed_step_in_the_thrust_hands_over_to_hops_that_shrink_and_grow(fake_hops):
-    """The step to 13.9 N fails; the hops go on from 14 N: halved where one fails, doubled again
+    """The step to 13.9 N fails; the hops go on from 14 N: halved where one fails (half the step
+    tried: 13.94 → 13.9, cut short by the target to 0.04 N, is retried at 0.02 N), doubled again
     after each that arrives, through 13.9 N and on to 13.85 N without the path in the thrust."""
     calls, follow = fake_hops
     last, points, stop = follow([13.9, 13.85], HOPS)
-    assert calls == [(14.0, 13.94), (14.0, 13.97), (13.97, 13.91), (13.97, 13.94), (13.94, 13.9), (13.94, 13.91),
-                     (13.91, 13.9), (13.9, 13.85), (13.9, 13.87), (13.87, 13.85)]
+    assert calls == [(14.0, 13.94), (14.0, 13.97), (13.97, 13.91), (13.97, 13.94), (13.94, 13.9), (13.94, 13.92),
+                     (13.92, 13.9), (13.9, 13.85), (13.9, 13.875), (13.875, 13.85)]
     assert stop == "" and last.thrust_N == 13.85
-    assert [(p["thrust_N"], p["hop"]) for p in points[2:]] == [(13.97, True), (13.94, True), (13.91, True), (13.9, True),
-                                                              (13.87, True), (13.85, True)]
+    assert [(p["thrust_N"], p["hop"]) for p in points[2:]] == [(13.97, True), (13.94, True), (13.92, True), (13.9, True),
+                                                              (13.875, True), (13.85, True)]
     assert [p["hop"] for p in points[:2]] == [False, False] and "end_game" in points[-1]
 
 

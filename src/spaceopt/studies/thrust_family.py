@@ -347,7 +347,8 @@ def hop_down(sol: Solution, thrust_N: float, eps: float, options, hops: dict, la
              reached: Callable[[Solution, dict, float], None]) -> tuple[Solution, str]:
     """From the family point ``sol`` down to ``thrust_N`` by :func:`hop`, each to at most
     ``step_N`` below the last point, its t_f predicted by :func:`predicted_tof`; a hop that fails
-    is retried from the same point at half the step, down to ``min_step_N``, and after each that
+    is retried from the same point at half the step it tried (not of ``step_N``: a hop cut short
+    by ``thrust_N`` would otherwise be retried unchanged), down to ``min_step_N``, and after each that
     arrives the step doubles again (up to ``step_N``). Each point reached goes to ``reached``:
     (the last solution, '' or why ``thrust_N`` was not reached)."""
     h = hops["step_N"]
@@ -358,10 +359,10 @@ def hop_down(sol: Solution, thrust_N: float, eps: float, options, hops: dict, la
         try:
             moved = hop(sol, T, tof, options, hops, f"{label}/hop {T:g} N")
         except ConvergenceError as exc:
-            if h / 2 < hops["min_step_N"] * (1 - 1e-12):
+            h = (sol.thrust_N - T) / 2          # half the step tried (which the target may have cut short)
+            if h < hops["min_step_N"] * (1 - 1e-12):
                 return sol, (f"T {thrust_N:g} N not reached: the hop to {T:g} N failed with steps down to "
-                             f"{h:g} N: {exc}")
-            h /= 2
+                             f"{2 * h:g} N: {exc}")
             _log(options, f"[{label}] the hop to {T:g} N failed ({exc}); again at a step of {h:g} N")
             continue
         sol = moved
