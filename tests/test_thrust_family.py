@@ -301,6 +301,29 @@ def test_a_failed_step_in_the_thrust_hands_over_to_hops_that_shrink_and_grow(fak
     assert [p["hop"] for p in points[:2]] == [False, False] and "end_game" in points[-1]
 
 
+def test_a_hop_whose_fixed_time_path_fails_is_retried_once_with_t_f_moved_twice_as_far(fake_hops, carried,
+                                                                                       monkeypatch):
+    """A failure of the fixed-time path (not of the end game) retries the same thrust with t_f
+    moved twice as far from the point's own; a second failure halves the step."""
+    _, follow = fake_hops
+    first, pts = carried[1], carried[2]
+    own, calls = TF.tof_of(first), []
+
+    def hop(sol, T, tof, options, hops, label):
+        calls.append((sol.thrust_N, T, tof))
+        if len(calls) in (1, 3, 4):
+            raise ConvergenceError(f"{label}: continuation failed", {"reason": "too many continuation steps"})
+        return dataclasses.replace(TF.at_thrust(sol, T, 1e-2), stats={"steps": 1, "end_game": {"tof_days": tof}})
+    monkeypatch.setattr(TF, "hop", hop)
+    last, points, stop = follow([13.9], HOPS)
+    secant = TF.predicted_tof(pts, 13.94, 1e-2)
+    assert [c[:2] for c in calls] == [(14.0, 13.94), (14.0, 13.94), (13.94, 13.9), (13.94, 13.9), (13.94, 13.92),
+                                      (13.92, 13.9)]
+    assert calls[0][2] == pytest.approx(secant) and calls[1][2] - own == pytest.approx(2 * (secant - own))
+    assert calls[4][2] == pytest.approx(TF.predicted_tof(points[:-2], 13.92, 1e-2))
+    assert stop == "" and last.thrust_N == 13.9
+
+
 def test_hops_that_fail_down_to_the_least_step_stop_the_family_and_a_resumed_hop_hops_on(fake_hops):
     calls, follow = fake_hops
     last, points, stop = follow([13.9], {**HOPS, "min_step_N": 0.04})

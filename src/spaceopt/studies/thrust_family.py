@@ -346,26 +346,38 @@ def follow(sol: Solution, thrusts_N: list, eps: float, options, label: str, poin
 def hop_down(sol: Solution, thrust_N: float, eps: float, options, hops: dict, label: str, points: list,
              reached: Callable[[Solution, dict, float], None]) -> tuple[Solution, str]:
     """From the family point ``sol`` down to ``thrust_N`` by :func:`hop`, each to at most
-    ``step_N`` below the last point, its t_f predicted by :func:`predicted_tof`; a hop that fails
-    is retried from the same point at half the step it tried (not of ``step_N``: a hop cut short
-    by ``thrust_N`` would otherwise be retried unchanged), down to ``min_step_N``, and after each that
-    arrives the step doubles again (up to ``step_N``). Each point reached goes to ``reached``:
-    (the last solution, '' or why ``thrust_N`` was not reached)."""
-    h = hops["step_N"]
+    ``step_N`` below the last point, its t_f predicted by :func:`predicted_tof`. A hop whose
+    fixed-time path fails is retried once at the same thrust with t_f moved twice as far from the
+    point's own: the secant falls short where Δt(T) steepens, and a fixed-time problem whose t_f
+    is shorter than the least time at the thrust has no solution (the path runs off), while a
+    longer one has (the engine coasts; the end game marches back down). A hop that fails again,
+    or in its end game, is retried from the same point at half the step it tried (not of
+    ``step_N``: a hop cut short by ``thrust_N`` would otherwise be retried unchanged), down to
+    ``min_step_N``, and after each that arrives the step doubles again (up to ``step_N``). Each
+    point reached goes to ``reached``: (the last solution, '' or why ``thrust_N`` was not
+    reached)."""
+    h, longer = hops["step_N"], False
     while sol.thrust_N > thrust_N * (1 + 1e-12):
         T = max(thrust_N, round(sol.thrust_N - h, 12))
         tof = predicted_tof(points, T, eps)
+        if longer:
+            tof += tof - tof_of(sol)
         t0 = time.perf_counter()
         try:
             moved = hop(sol, T, tof, options, hops, f"{label}/hop {T:g} N")
         except ConvergenceError as exc:
+            if not longer and exc.diagnosis.get("reason") != "hop end game":
+                longer = True
+                _log(options, f"[{label}] the hop to {T:g} N failed on its path ({exc}); again with a longer t_f")
+                continue
+            longer = False
             h = (sol.thrust_N - T) / 2          # half the step tried (which the target may have cut short)
             if h < hops["min_step_N"] * (1 - 1e-12):
                 return sol, (f"T {thrust_N:g} N not reached: the hop to {T:g} N failed with steps down to "
                              f"{2 * h:g} N: {exc}")
             _log(options, f"[{label}] the hop to {T:g} N failed ({exc}); again at a step of {h:g} N")
             continue
-        sol = moved
+        sol, longer = moved, False
         reached(sol, moved.stats, time.perf_counter() - t0)
         h = min(2.0 * h, hops["step_N"])
     return sol, ""
