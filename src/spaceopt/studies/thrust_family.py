@@ -50,6 +50,9 @@ from − to +, the free-time condition's, not a certified maximum of the smoothe
 0.728 N and reach 0.6 N, where they land on the point carried from J2 (841.223 kg, 91.034 d);
 with ``first_step`` 1.2 (seventieth session) the same points in 194 Jacobians instead of 337, and on
 to 0.45 N (the carried point again; at 0.5 N another extremal than the carried one, 0.50 d shorter).
+From the carried 0.45 N point (seventy-second session) to 0.3225 N, where the secant's t_f fell
+short and the fixed-time paths ran off (hence ``max_path_steps`` and the retry with a longer t_f,
+which reached 0.32 N).
 """
 from __future__ import annotations
 
