@@ -49,7 +49,9 @@ Measured (docs/perturbed-e6-e7-e8.md, sixty-third session): at 100 revolutions t
 running away (535 000 km at 0.30 N); at 2 revolutions 14.85 N against the bound's 16.16 N.
 ``hop`` from the full model's own family at 0.8 N (sixty-ninth session): 0.6 N in ten hops of
 0.02 N, past the fold near 0.728 N, onto the point carried from J2 (841.223 kg, 91.034 d); with
-``first_step`` 1.2 (seventieth session) on to 0.45 N in 18 hops.
+``first_step`` 1.2 (seventieth session) on to 0.45 N in 18 hops. From the carried 0.45 N point
+(seventy-second session; its unknowns from the artifact's family points, saved with the points
+down to 0.45 N) to 0.3225 N, then with the retry at a longer t_f to 0.3175 N; not to 0.31 N.
 """
 import dataclasses
 import sys
