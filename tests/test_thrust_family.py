@@ -279,7 +279,7 @@ def fake_hops(carried, monkeypatch):
     def hop(sol, T, tof, options, hops, label):
         calls.append((sol.thrust_N, T))
         if sol.thrust_N - T > 0.035:
-            raise ConvergenceError(f"{label}: no crossing", {"reason": "hop end game"})
+            raise ConvergenceError(f"{label}: no crossing", {"reason": TF.HOP_END_GAME})
         return dataclasses.replace(TF.at_thrust(sol, T, 1e-2), stats={"steps": 1, "end_game": {"tof_days": tof}})
     monkeypatch.setattr(chain, "continue_in_params", path)
     monkeypatch.setattr(TF, "hop", hop)

@@ -29,6 +29,13 @@ def number(cfg, key, path, positive=False, allow_zero=False):
     return float(val)
 
 
+def positive_integer(val, path):
+    """``val`` checked to be a positive integer (not a bool); ``path`` names its key in the error."""
+    if not isinstance(val, int) or isinstance(val, bool) or val < 1:
+        raise ConfigError(path, val, "must be a positive integer")
+    return val
+
+
 def orbit_from_config(cfg, path, radius_m) -> Orbit:
     if not isinstance(cfg, dict):
         raise ConfigError(path, cfg, "must be a mapping of orbit elements")

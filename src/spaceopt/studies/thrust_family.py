@@ -73,6 +73,7 @@ COLUMNS = ("case", "model", "start", "thrust_N", "eps", "m_f_kg", "propellant_kg
            "least_radius_km", "duty", "steps", "jacobians", "wall_s", "hop")
 HOP_DEFAULTS = {"step_N": 0.02, "min_step_N": 0.0025, "probe_days": 0.1, "max_points": 24, "first_step": 1.2,
                 "max_path_steps": 40}
+HOP_END_GAME = "hop end game"       # the diagnosis reason of a hop whose end game finds no crossing
 
 
 def settings(pc: dict) -> dict[str, dict]:
@@ -83,7 +84,7 @@ def settings(pc: dict) -> dict[str, dict]:
     above 0, ε is not in (0, 1), a model is not one of the case's, max_steps is not a positive
     integer, carry_from is not a mapping {model of the case: another model of the family}, or
     hops is not as :func:`hop_settings` reads it."""
-    from .multirev_config import number      # (loads JAX: not at import, for the report jobs)
+    from .multirev_config import number, positive_integer      # (loads JAX: not at import, for the report jobs)
     out = {}
     for case, s in (pc.get("thrust_family") or {}).items():
         key = f"perturbed.thrust_family.{case}"
@@ -109,9 +110,7 @@ def settings(pc: dict) -> dict[str, dict]:
         for m in models if isinstance(models, list) else [models]:
             if not isinstance(models, list) or m not in known:
                 raise ConfigError(f"{key}.models", m, f"not a list of the case's models ({', '.join(known)})")
-        max_steps = s.get("max_steps", 2000)
-        if not isinstance(max_steps, int) or isinstance(max_steps, bool) or max_steps < 1:
-            raise ConfigError(f"{key}.max_steps", max_steps, "must be a positive integer")
+        max_steps = positive_integer(s.get("max_steps", 2000), f"{key}.max_steps")
         carry = s.get("carry_from") or {}
         if not isinstance(carry, dict):
             raise ConfigError(f"{key}.carry_from", carry, "must be a mapping {model: the model whose family it starts from}")
@@ -130,7 +129,7 @@ def hop_settings(hops, key: str) -> dict | None:
     defaulting to :data:`HOP_DEFAULTS`; null: off) checked: ConfigError naming the key where it is
     no mapping, has another key, a step, probe or first step is not positive, min_step_N exceeds
     step_N, or max_points or max_path_steps is not a positive integer."""
-    from .multirev_config import number
+    from .multirev_config import number, positive_integer
     if hops is None:
         return None
     if not isinstance(hops, dict):
@@ -144,8 +143,7 @@ def hop_settings(hops, key: str) -> dict | None:
     if out["min_step_N"] > out["step_N"]:
         raise ConfigError(f"{key}.min_step_N", out["min_step_N"], f"must not exceed step_N ({out['step_N']:g})")
     for k in ("max_points", "max_path_steps"):
-        if not isinstance(out[k], int) or isinstance(out[k], bool) or out[k] < 1:
-            raise ConfigError(f"{key}.{k}", out[k], "must be a positive integer")
+        positive_integer(out[k], f"{key}.{k}")
     return out
 
 
@@ -234,8 +232,8 @@ def hop(sol: Solution, thrust_N: float, tof_days: float, options, hops: dict, la
     step of ``first_step``, given up after ``max_path_steps`` steps (``chain.continue_in_params``;
     where the predicted t_f is too short for the thrust the path runs off in z at a τ short of 1,
     dτ/ds → 0, with steps that each pass the corrector: E7 full model, seventy-second session,
-    400 steps and 30 min before the follower's own cap, where an arriving path takes 1–9); then the free-time end game at
-    ``thrust_N`` from there (``free_time.maximise_final_mass``: probes ``probe_days`` apart, the march in t_f, Brent; at
+    400 steps and 30 min before the follower's own cap, where an arriving path takes 1–9); then
+    the free-time end game at ``thrust_N`` from there (``free_time.maximise_final_mass``: probes ``probe_days`` apart, the march in t_f, Brent; at
     most ``max_points`` fixed-time solves; no survey, no lift, the checks of m_f against φ off,
     as the family's ε is > 0), to the nearest crossing of φ from − to +. The fixed-time extremal
     there, relabelled at ``thrust_N``; its stats hold the path's steps, the Jacobians of both
@@ -258,7 +256,7 @@ def hop(sol: Solution, thrust_N: float, tof_days: float, options, hops: dict, la
         hidden_tol=np.inf, verbose=_verbose(options), label=f"{label} end game"))
     if not record["certified"]:
         raise ConvergenceError(f"{label}: no crossing of p_t(K_f) from - to + in t_f at {thrust_N:g} N "
-                               f"({record['status']})", {"reason": "hop end game", "end_game": record})
+                               f"({record['status']})", {"reason": HOP_END_GAME, "end_game": record})
     end_game = {k: record[k] for k in ("t0_days", "tof_days", "phi", "fixed_time_solves", "jacobian_evaluations",
                                        "wall_time_s")}
     stats = {"steps": moved.stats.get("steps", 0), "end_game": end_game,
@@ -369,7 +367,7 @@ def hop_down(sol: Solution, thrust_N: float, eps: float, options, hops: dict, la
         try:
             moved = hop(sol, T, tof, options, hops, f"{label}/hop {T:g} N")
         except ConvergenceError as exc:
-            if not longer and exc.diagnosis.get("reason") != "hop end game":
+            if not longer and exc.diagnosis.get("reason") != HOP_END_GAME:
                 longer = True
                 _log(options, f"[{label}] the hop to {T:g} N failed on its path ({exc}); again with a longer t_f")
                 continue
