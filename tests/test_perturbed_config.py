@@ -100,6 +100,8 @@ def test_scan_dates_and_warm_start_order():
         C.scan_order(dates, "2021-06-01T12:00:00")
     with pytest.raises(ConfigError, match="step_days"):
         C.scan_dates({**PC["e6"], "step_days": 0})
+    with pytest.raises(ConfigError, match="step_days"):        # a bool is no step
+        C.scan_dates({**PC["e6"], "step_days": True})
 
 
 def test_scan_start_from_names_scan_dates_without_cycles():

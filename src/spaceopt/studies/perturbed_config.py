@@ -13,7 +13,7 @@ from __future__ import annotations
 from ..errors import ConfigError
 from ..indirect.continuation import ACCEPTED_UPDATES, CORRECTORS, GROWTH
 from ..indirect.transfer import PATH_RTOL, SWITCHINGS
-from .multirev_config import number
+from .multirev_config import number, positive_integer
 
 
 # ---------------------------------------------------------------- case options
@@ -276,9 +276,7 @@ def scan_dates(e6: dict) -> list[str]:
         d1 = date.fromisoformat(e6["last_date"])
     except (KeyError, TypeError, ValueError) as exc:
         raise ConfigError("perturbed.e6.first_date/last_date", e6.get("first_date"), f"bad date ({exc})") from None
-    step = e6.get("step_days", 1)
-    if not isinstance(step, int) or step < 1:
-        raise ConfigError("perturbed.e6.step_days", step, "must be a positive integer")
+    step = positive_integer(e6.get("step_days", 1), "perturbed.e6.step_days")
     if d1 < d0:
         raise ConfigError("perturbed.e6.last_date", e6["last_date"], "before first_date")
     out, d = [], d0
