@@ -254,6 +254,20 @@ def test_a_hop_lands_on_the_extremal_that_the_path_in_the_thrust_reaches(carried
     assert sol.stats["jacobian_evaluations"] > game["jacobian_evaluations"] > 0
 
 
+def test_a_hop_t_f_first_from_far_above_marches_back_to_the_same_extremal(carried, hopped):
+    """With ``tof_first`` (t_f alone, then T at that t_f) from a t_f 0.05 d above the secant's,
+    25 probes: the end game's march, its steps doubling from 0.002 d, comes back down to the
+    extremal of the secant's hop in fewer solves than a march of probe steps would take."""
+    first, pts = carried[1], carried[2]
+    tof, near = hopped
+    sol = TF.hop(first, 13.9, tof + 0.05, ContinuationOptions(max_steps=30, verbose=False), HOPS, "hop", tof_first=True)
+    here, there = TF.describe(sol), TF.describe(near)
+    assert here["tof_days"] == pytest.approx(there["tof_days"], abs=2e-5)
+    assert here["m_f_kg"] == pytest.approx(there["m_f_kg"], abs=1e-4)
+    assert sol.stats["steps"] >= 2 and sol.stats["end_game"]["t0_days"] == pytest.approx(tof + 0.05, abs=1e-6)
+    assert sol.stats["end_game"]["fixed_time_solves"] < 0.05 / HOPS["probe_days"]
+
+
 def test_a_hop_whose_fixed_time_path_takes_more_than_max_path_steps_fails(carried):
     """The fixed-time path is given up after ``max_path_steps`` steps (from a first step of 1e-3
     three steps cannot reach τ = 1), as a ConvergenceError the hops halve on."""
@@ -276,7 +290,7 @@ def fake_hops(carried, monkeypatch):
         assert "/T " in label, "the hops must not call the path in the thrust"
         raise ConvergenceError(f"{label}: step-size underflow", {"reason": "underflow"})
 
-    def hop(sol, T, tof, options, hops, label):
+    def hop(sol, T, tof, options, hops, label, tof_first=False):
         calls.append((sol.thrust_N, T))
         if sol.thrust_N - T > 0.035:
             raise ConvergenceError(f"{label}: no crossing", {"reason": TF.HOP_END_GAME})
@@ -304,13 +318,13 @@ def test_a_failed_step_in_the_thrust_hands_over_to_hops_that_shrink_and_grow(fak
 def test_a_hop_whose_fixed_time_path_fails_is_retried_once_with_t_f_moved_twice_as_far(fake_hops, carried,
                                                                                        monkeypatch):
     """A failure of the fixed-time path (not of the end game) retries the same thrust with t_f
-    moved twice as far from the point's own; a second failure halves the step."""
+    moved twice as far from the point's own, t_f first; a second failure halves the step."""
     _, follow = fake_hops
     first, pts = carried[1], carried[2]
     own, calls = TF.tof_of(first), []
 
-    def hop(sol, T, tof, options, hops, label):
-        calls.append((sol.thrust_N, T, tof))
+    def hop(sol, T, tof, options, hops, label, tof_first=False):
+        calls.append((sol.thrust_N, T, tof, tof_first))
         if len(calls) in (1, 3, 4):
             raise ConvergenceError(f"{label}: continuation failed", {"reason": "too many continuation steps"})
         return dataclasses.replace(TF.at_thrust(sol, T, 1e-2), stats={"steps": 1, "end_game": {"tof_days": tof}})
@@ -320,6 +334,7 @@ def test_a_hop_whose_fixed_time_path_fails_is_retried_once_with_t_f_moved_twice_
     assert [c[:2] for c in calls] == [(14.0, 13.94), (14.0, 13.94), (13.94, 13.9), (13.94, 13.9), (13.94, 13.92),
                                       (13.92, 13.9)]
     assert calls[0][2] == pytest.approx(secant) and calls[1][2] - own == pytest.approx(2 * (secant - own))
+    assert [c[3] for c in calls] == [False, True, False, True, False, False]
     assert calls[4][2] == pytest.approx(TF.predicted_tof(points[:-2], 13.92, 1e-2))
     assert stop == "" and last.thrust_N == 13.9
 
@@ -340,6 +355,7 @@ def test_the_hop_settings_default_and_name_a_bad_key():
     assert TF.hop_settings({"step_N": 0.05}, "k") == {**TF.HOP_DEFAULTS, "step_N": 0.05}
     for bad, key in (({"step": 1}, "k.step"), ({"min_step_N": 0.1}, "k.min_step_N"), ({"probe_days": 0}, "k.probe_days"),
                      ({"max_points": 2.5}, "k.max_points"), ({"first_step": -0.3}, "k.first_step"),
-                     ({"max_path_steps": 0}, "k.max_path_steps"), ([0.02], "k")):
+                     ({"max_path_steps": 0}, "k.max_path_steps"), ({"max_march_days": 0.05}, "k.max_march_days"),
+                     ([0.02], "k")):
         with pytest.raises(ConfigError, match=f"^{key.replace('.', '[.]')}"):
             TF.hop_settings(bad, "k")

@@ -90,6 +90,8 @@ from .transfer import datum
 @dataclass
 class MaximumOptions:
     probe_days: float = 0.05        # δ: the probes at t_f ± δ and the march's step
+    max_march_days: float = 0.0     # > δ: the march's step doubled after each solved point up to this (at ε_f;
+    # thrust_family.hop, whose start may lie days from the crossing); 0: at most δ
     tof_tol_days: float = 1e-4      # the width at which Brent's bracket ends
     max_points: int = 16            # fixed-time solves of the probes and the march at most
     newton_tol: float = 3e-8        # |f|₂ of a fixed-time point, the time row excepted (E8: the
@@ -439,9 +441,10 @@ class MaximumSearch:
     def march(self, trail: list[FixedTimePoint], direction: float):
         """From the last point of ``trail`` in ``direction`` by steps of the trail's last spacing
         (at most δ; halved where Newton fails, down to δ/8, and kept; at the lifted ε of
-        :meth:`across_branches` doubled again after each solved point, up to δ), until φ turns
-        from − to + (as t_f grows); where a step fails even at δ/8, on by arclength
-        (:meth:`follow_arc`)."""
+        :meth:`across_branches` doubled again after each solved point, up to δ, and at ε_f so up
+        to ``max_march_days`` where that exceeds δ), until φ turns from − to + (as t_f grows);
+        where a step fails even at δ/8, on by arclength (:meth:`follow_arc`)."""
+        longest = self.delta if self.at_lift else max(self.delta, self.opt.max_march_days * DAY / self.tu)
         h = min(self.delta, abs(trail[-1].tf - trail[-2].tf))
         while self.within_budget():
             last = trail[-1]
@@ -451,10 +454,10 @@ class MaximumSearch:
             trail.append(p)
             if np.sign(p.phi) != np.sign(last.phi):
                 return (last, p) if direction > 0 else (p, last)
-            if self.at_lift:
+            if self.at_lift or longest > self.delta:
                 # E8 full 500 at ε 1e-3: steps of δ/4 pass 320.3 d, δ again beyond (kept at δ/4,
                 # the march ran out of solves 0.2 d short of the maximum)
-                h = min(2.0 * h, self.delta)
+                h = min(2.0 * h, longest)
         return f"no sign change of phi within {self.budget} fixed-time solves"
 
     def arc_steps(self, trail: list[FixedTimePoint]):

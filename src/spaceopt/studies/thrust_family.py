@@ -71,8 +71,8 @@ if TYPE_CHECKING:
 
 COLUMNS = ("case", "model", "start", "thrust_N", "eps", "m_f_kg", "propellant_kg", "tof_days", "max_apogee_km", "max_e",
            "least_radius_km", "duty", "steps", "jacobians", "wall_s", "hop")
-HOP_DEFAULTS = {"step_N": 0.02, "min_step_N": 0.0025, "probe_days": 0.1, "max_points": 24, "first_step": 1.2,
-                "max_path_steps": 40}
+HOP_DEFAULTS = {"step_N": 0.02, "min_step_N": 0.0025, "probe_days": 0.1, "max_march_days": 1.6, "max_points": 24,
+                "first_step": 1.2, "max_path_steps": 40}
 HOP_END_GAME = "hop end game"       # the diagnosis reason of a hop whose end game finds no crossing
 
 
@@ -125,10 +125,11 @@ def settings(pc: dict) -> dict[str, dict]:
 
 
 def hop_settings(hops, key: str) -> dict | None:
-    """``hops`` ({step_N, min_step_N, probe_days, max_points, first_step, max_path_steps}, each
-    defaulting to :data:`HOP_DEFAULTS`; null: off) checked: ConfigError naming the key where it is
-    no mapping, has another key, a step, probe or first step is not positive, min_step_N exceeds
-    step_N, or max_points or max_path_steps is not a positive integer."""
+    """``hops`` ({step_N, min_step_N, probe_days, max_march_days, max_points, first_step,
+    max_path_steps}, each defaulting to :data:`HOP_DEFAULTS`; null: off) checked: ConfigError
+    naming the key where it is no mapping, has another key, a step, probe or first step is not
+    positive, min_step_N exceeds step_N, max_march_days is less than probe_days, or max_points or
+    max_path_steps is not a positive integer."""
     from .multirev_config import number, positive_integer
     if hops is None:
         return None
@@ -138,10 +139,13 @@ def hop_settings(hops, key: str) -> dict | None:
     if unknown:
         raise ConfigError(f"{key}.{unknown[0]}", hops[unknown[0]], f"not a hop setting (expected {', '.join(HOP_DEFAULTS)})")
     out = {**HOP_DEFAULTS, **hops}
-    for k in ("step_N", "min_step_N", "probe_days", "first_step"):
+    for k in ("step_N", "min_step_N", "probe_days", "max_march_days", "first_step"):
         out[k] = number(out, k, key, positive=True)
     if out["min_step_N"] > out["step_N"]:
         raise ConfigError(f"{key}.min_step_N", out["min_step_N"], f"must not exceed step_N ({out['step_N']:g})")
+    if out["max_march_days"] < out["probe_days"]:
+        raise ConfigError(f"{key}.max_march_days", out["max_march_days"],
+                          f"must not be less than probe_days ({out['probe_days']:g})")
     for k in ("max_points", "max_path_steps"):
         positive_integer(out[k], f"{key}.{k}")
     return out
@@ -225,15 +229,18 @@ def carry_points(seed_points: list[Solution], tr: Transfer, options, label: str,
     return last, points, not_carried
 
 
-def hop(sol: Solution, thrust_N: float, tof_days: float, options, hops: dict, label: str) -> Solution:
+def hop(sol: Solution, thrust_N: float, tof_days: float, options, hops: dict, label: str,
+        tof_first: bool = False) -> Solution:
     """The family point ``sol`` (a free-time OT solution at its thrust and ε) hopped to
     ``thrust_N``: moved there on the fixed-time map (t(K_f) = t_f in place of p_t(K_f) = 0),
-    t_f moved linearly with T from the point's own to ``tof_days``, in arclength from a first
-    step of ``first_step``, given up after ``max_path_steps`` steps (``chain.continue_in_params``;
+    t_f moved linearly with T from the point's own to ``tof_days`` (with ``tof_first``: t_f
+    alone first, at the point's thrust, then T at that t_f; a leg's path from each start), in
+    arclength from a first step of ``first_step``, given up after ``max_path_steps`` steps (``chain.continue_in_params``;
     where the predicted t_f is too short for the thrust the path runs off in z at a τ short of 1,
     dτ/ds → 0, with steps that each pass the corrector: E7 full model, seventy-second session,
     400 steps and 30 min before the follower's own cap, where an arriving path takes 1–9); then
-    the free-time end game at ``thrust_N`` from there (``free_time.maximise_final_mass``: probes ``probe_days`` apart, the march in t_f, Brent; at
+    the free-time end game at ``thrust_N`` from there (``free_time.maximise_final_mass``: probes ``probe_days`` apart, the march in t_f
+    by steps doubling up to ``max_march_days``, Brent; at
     most ``max_points`` fixed-time solves; no survey, no lift, the checks of m_f against φ off,
     as the family's ε is > 0), to the nearest crossing of φ from − to +. The fixed-time extremal
     there, relabelled at ``thrust_N``; its stats hold the path's steps, the Jacobians of both
@@ -249,18 +256,22 @@ def hop(sol: Solution, thrust_N: float, tof_days: float, options, hops: dict, la
     target = {**at_thrust(sol, thrust_N, eps).prm, "tf": datum(tof_days * DAY / tu)}
     follower = dataclasses.replace(chain.path_options("arclength", options, f"{label} fixed time"),
                                    h_init=hops["first_step"], max_steps=hops["max_path_steps"])
-    moved = chain.continue_in_params(fixed, target, follower, label=f"{label} fixed time", path="arclength")
+    legs = [{**fixed.prm, "tf": target["tf"]}, target] if tof_first else [target]
+    moved, steps, jacobians = fixed, 0, 0
+    for leg in legs:
+        moved = chain.continue_in_params(moved, leg, follower, label=f"{label} fixed time", path="arclength")
+        steps += moved.stats.get("steps", 0)
+        jacobians += moved.stats.get("jacobian_evaluations", 0)
     free = dataclasses.replace(at_thrust(sol, thrust_N, eps), z=moved.z)
     out, record = maximise_final_mass(free, MaximumOptions(
-        probe_days=hops["probe_days"], max_points=hops["max_points"], lift_eps=0.0, jump_tol=np.inf,
-        hidden_tol=np.inf, verbose=_verbose(options), label=f"{label} end game"))
+        probe_days=hops["probe_days"], max_points=hops["max_points"], max_march_days=hops["max_march_days"],
+        lift_eps=0.0, jump_tol=np.inf, hidden_tol=np.inf, verbose=_verbose(options), label=f"{label} end game"))
     if not record["certified"]:
         raise ConvergenceError(f"{label}: no crossing of p_t(K_f) from - to + in t_f at {thrust_N:g} N "
                                f"({record['status']})", {"reason": HOP_END_GAME, "end_game": record})
     end_game = {k: record[k] for k in ("t0_days", "tof_days", "phi", "fixed_time_solves", "jacobian_evaluations",
                                        "wall_time_s")}
-    stats = {"steps": moved.stats.get("steps", 0), "end_game": end_game,
-             "jacobian_evaluations": moved.stats.get("jacobian_evaluations", 0) + record["jacobian_evaluations"]}
+    stats = {"steps": steps, "end_game": end_game, "jacobian_evaluations": jacobians + record["jacobian_evaluations"]}
     return dataclasses.replace(at_thrust(out, thrust_N, eps), stats=stats)
 
 
@@ -349,9 +360,10 @@ def hop_down(sol: Solution, thrust_N: float, eps: float, options, hops: dict, la
     """From the family point ``sol`` down to ``thrust_N`` by :func:`hop`, each to at most
     ``step_N`` below the last point, its t_f predicted by :func:`predicted_tof`. A hop whose
     fixed-time path fails is retried once at the same thrust with t_f moved twice as far from the
-    point's own: the secant falls short where Δt(T) steepens, and a fixed-time problem whose t_f
-    is shorter than the least time at the thrust has no solution (the path runs off), while a
-    longer one has (the engine coasts; the end game marches back down). A hop that fails again,
+    point's own, t_f first (``tof_first``): the secant falls short where Δt(T) steepens, and a
+    fixed-time problem whose t_f is shorter than the least time at the thrust has no solution
+    (the path runs off), while a longer one has (the engine coasts; the end game marches back
+    down, its steps growing to ``max_march_days``). A hop that fails again,
     or in its end game, is retried from the same point at half the step it tried (not of
     ``step_N``: a hop cut short by ``thrust_N`` would otherwise be retried unchanged), down to
     ``min_step_N``, and after each that arrives the step doubles again (up to ``step_N``). Each
@@ -365,7 +377,7 @@ def hop_down(sol: Solution, thrust_N: float, eps: float, options, hops: dict, la
             tof += tof - tof_of(sol)
         t0 = time.perf_counter()
         try:
-            moved = hop(sol, T, tof, options, hops, f"{label}/hop {T:g} N")
+            moved = hop(sol, T, tof, options, hops, f"{label}/hop {T:g} N", tof_first=longer)
         except ConvergenceError as exc:
             if not longer and exc.diagnosis.get("reason") != HOP_END_GAME:
                 longer = True
