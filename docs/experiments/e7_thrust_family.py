@@ -31,6 +31,9 @@ script now calls for the continuation and the per-point scalars).
                      last two points of the artifact's family; the end games logged; each point
                      reached saved at OUT if given, the family's points in its extra (a ``hop``
                      from OUT goes on from there)
+  at PATH T OUT      the point at thrust T of the family saved at PATH (its unknowns from the
+                     family's points) saved at OUT, with the family's points down to T (a start
+                     for ``hop``)
   model PATH MODEL   that saved point carried to the force model MODEL at its thrust and ε by
                      the model blend (``chain.continue_in_model``; run where results/ has E7's
                      ephemeris window)
@@ -134,6 +137,19 @@ def hop(path, thrusts, step_N=None, out=None):
             return
 
 
+def at(path, thrust_N, out):
+    """The point at ``thrust_N`` of the family saved at ``path`` (its unknowns from the points in
+    the extra, ``thrust_family.seeds``) saved at ``out``, with the family's points down to it."""
+    sol = P.load(path)
+    points = list(artifacts.read_json(path)["extra"]["family"]["points"])
+    T, eps = float(thrust_N), float(sol.prm["eps_final"])
+    seed = next(s for s in TF.seeds(sol, points, eps) if abs(s.thrust_N - T) < 1e-12)
+    kept = [p for p in points if p["thrust_N"] >= T - 1e-12]
+    P.save(seed, out, {"experiment": "e7_thrust_family at", "from": path}, 0.0, {"family": {"points": kept}},
+           samples_per_rev=20)
+    show(seed, {**kept[-1], "wall_s": 0.0})
+
+
 def model(path, name):
     """The family point saved at ``path`` carried to the force model ``name`` at its thrust and ε by
     the model blend (``chain.continue_in_model``, arclength)."""
@@ -164,4 +180,4 @@ def bound(n_rev, thrust_N):
 
 
 if __name__ == "__main__":
-    {"family": family, "below": below, "hop": hop, "model": model, "bound": bound}[sys.argv[1]](*sys.argv[2:])
+    {"family": family, "below": below, "hop": hop, "at": at, "model": model, "bound": bound}[sys.argv[1]](*sys.argv[2:])
