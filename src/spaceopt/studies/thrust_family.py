@@ -233,16 +233,19 @@ def hop(sol: Solution, thrust_N: float, tof_days: float, options, hops: dict, la
         tof_first: bool = False) -> Solution:
     """The family point ``sol`` (a free-time OT solution at its thrust and ε) hopped to
     ``thrust_N``: moved there on the fixed-time map (t(K_f) = t_f in place of p_t(K_f) = 0),
-    t_f moved linearly with T from the point's own to ``tof_days`` (with ``tof_first``: t_f
-    alone first, at the point's thrust, then T at that t_f), in arclength from a first step of
-    ``first_step``, each leg given up after ``max_path_steps`` steps (``chain.continue_in_params``;
+    t_f moved linearly with T from the point's own to ``tof_days`` (with ``tof_first``, for a
+    t_f chosen long: t_f alone first, at the point's thrust, then T at that t_f), in arclength
+    from a first step of ``first_step``, each leg given up after ``max_path_steps`` steps
+    (``chain.continue_in_params``;
     where the predicted t_f is too short for the thrust the path runs off in z at a τ short of 1,
     dτ/ds → 0, with steps that each pass the corrector: E7 full model, seventy-second session,
     400 steps and 30 min before the follower's own cap, where an arriving path takes 1–9); then
     the free-time end game at ``thrust_N`` from there (``free_time.maximise_final_mass``: probes
-    ``probe_days`` apart, the march in t_f by steps doubling up to ``max_march_days``, Brent; at
-    most ``max_points`` fixed-time solves; no survey, no lift, the checks of m_f against φ off,
-    as the family's ε is > 0), to the nearest crossing of φ from − to +. The fixed-time extremal
+    ``probe_days`` apart, the march in t_f by such steps (with ``tof_first`` doubling up to
+    ``max_march_days``: the start may lie days above the crossing), Brent; at most
+    ``max_points`` fixed-time solves; no survey, no lift, the checks of m_f against φ off, as
+    the family's ε is > 0), to the nearest crossing of φ from − to + (with ``tof_first`` the
+    first one the march meets: a longer step may pass a pair). The fixed-time extremal
     there, relabelled at ``thrust_N``; its stats hold the path's steps, the Jacobians of both
     parts and the end game's record (``end_game``: where it started and ended, its solves).
     ConvergenceError where the path does not arrive or the end game finds no crossing."""
@@ -264,7 +267,8 @@ def hop(sol: Solution, thrust_N: float, tof_days: float, options, hops: dict, la
         jacobians += moved.stats.get("jacobian_evaluations", 0)
     free = dataclasses.replace(at_thrust(sol, thrust_N, eps), z=moved.z)
     out, record = maximise_final_mass(free, MaximumOptions(
-        probe_days=hops["probe_days"], max_points=hops["max_points"], max_march_days=hops["max_march_days"],
+        probe_days=hops["probe_days"], max_points=hops["max_points"],
+        max_march_days=hops["max_march_days"] if tof_first else hops["probe_days"],
         lift_eps=0.0, jump_tol=np.inf, hidden_tol=np.inf, verbose=_verbose(options), label=f"{label} end game"))
     if not record["certified"]:
         raise ConvergenceError(f"{label}: no crossing of p_t(K_f) from - to + in t_f at {thrust_N:g} N "
