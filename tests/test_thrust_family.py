@@ -356,6 +356,7 @@ def test_the_hop_settings_default_and_name_a_bad_key():
     for bad, key in (({"step": 1}, "k.step"), ({"min_step_N": 0.1}, "k.min_step_N"), ({"probe_days": 0}, "k.probe_days"),
                      ({"max_points": 2.5}, "k.max_points"), ({"first_step": -0.3}, "k.first_step"),
                      ({"max_path_steps": 0}, "k.max_path_steps"), ({"max_march_days": 0.05}, "k.max_march_days"),
+                     ({"max_tof_steps": True}, "k.max_tof_steps"),
                      ([0.02], "k")):
         with pytest.raises(ConfigError, match=f"^{key.replace('.', '[.]')}"):
             TF.hop_settings(bad, "k")
