@@ -55,6 +55,9 @@ running away (535 000 km at 0.30 N); at 2 revolutions 14.85 N against the bound'
 ``first_step`` 1.2 (seventieth session) on to 0.45 N in 18 hops. From the carried 0.45 N point
 (seventy-second session; its unknowns from the artifact's family points, saved with the points
 down to 0.45 N) to 0.3225 N, then with the retry at a longer t_f to 0.3175 N; not to 0.31 N.
+With the retry's t_f first and the end game's doubling march (seventy-third session; ``at`` the
+carried family's 0.32 N point, then ``hop`` from it to 0.31,0.3): 0.315 N, then 0.31 N on the
+carried extremal (725.411 kg, 152.874 d); not 0.30 N.
 """
 import dataclasses
 import sys

@@ -52,7 +52,8 @@ with ``first_step`` 1.2 (seventieth session) the same points in 194 Jacobians in
 to 0.45 N (the carried point again; at 0.5 N another extremal than the carried one, 0.50 d shorter).
 From the carried 0.45 N point (seventy-second session) to 0.3225 N, where the secant's t_f fell
 short and the fixed-time paths ran off (hence ``max_path_steps`` and the retry with a longer t_f,
-which reached 0.32 N).
+which reached 0.32 N); with the retry's t_f first and its end game's doubling march (seventy-third
+session) from the carried 0.32 N point to 0.31 N, onto the carried extremal, not to 0.30 N.
 """
 from __future__ import annotations
 
