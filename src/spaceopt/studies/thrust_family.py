@@ -260,7 +260,7 @@ def hop(sol: Solution, thrust_N: float, tof_days: float, options, hops: dict, la
                                 prm={**sol.prm, "tf": datum(tof_of(sol) * DAY / tu)})
     target = {**at_thrust(sol, thrust_N, eps).prm, "tf": datum(tof_days * DAY / tu)}
     follower = dataclasses.replace(chain.path_options("arclength", options, f"{label} fixed time"),
-                                   h_init=hops["first_step"], max_steps=hops["max_path_steps"])
+                                   h_init=hops["first_step"])
     legs = [({**fixed.prm, "tf": target["tf"]}, hops["max_tof_steps"])] if tof_first else []
     moved, steps, jacobians = fixed, 0, 0
     for leg, cap in [*legs, (target, hops["max_path_steps"])]:
@@ -271,7 +271,7 @@ def hop(sol: Solution, thrust_N: float, tof_days: float, options, hops: dict, la
     free = dataclasses.replace(at_thrust(sol, thrust_N, eps), z=moved.z)
     out, record = maximise_final_mass(free, MaximumOptions(
         probe_days=hops["probe_days"], max_points=hops["max_points"],
-        max_march_days=hops["max_march_days"] if tof_first else hops["probe_days"],
+        max_march_days=hops["max_march_days"] if tof_first else 0.0,
         lift_eps=0.0, jump_tol=np.inf, hidden_tol=np.inf, verbose=_verbose(options), label=f"{label} end game"))
     if not record["certified"]:
         raise ConvergenceError(f"{label}: no crossing of p_t(K_f) from - to + in t_f at {thrust_N:g} N "
