@@ -436,6 +436,32 @@ def test_arclength_gives_up_a_path_that_runs_back_below_the_floor():
     assert 0.45 < err.value.diagnosis["tau_max"] <= 0.5         # where the path turned back
 
 
+def test_arclength_gives_up_a_path_that_runs_off_in_z_and_passes_folds():
+    """e^(−z) + 1 = 2(1 − τ) from z = 0 reaches τ = ½ only as z → ∞: with ``runoff_slope`` the
+    follower stops after ``runoff_steps`` steps in a row with |dτ/ds| below it, short of its
+    step cap (which it runs into without); the folds of z³ − 3z = −2 + 6τ (dτ/ds through 0)
+    do not stop it."""
+    import numpy as np
+    from spaceopt.errors import ConvergenceError
+    from spaceopt.indirect.continuation import ArclengthContinuation, ArclengthOptions
+
+    def ev(z, tau):
+        return np.atleast_1d(np.exp(-z) + 1.0), np.array([[-np.exp(-z[0])]]), np.zeros(1), 0, True
+
+    def fold(z, tau):
+        return (np.atleast_1d(z**3 - 3 * z + 2 - 6 * tau), np.array([[3 * z[0] ** 2 - 3]]), np.array([-6.0]), 0, True)
+
+    watched = ArclengthOptions(verbose=False, runoff_slope=0.01, runoff_steps=5, max_steps=200)
+    arc = ArclengthContinuation(ev, watched)
+    with pytest.raises(ConvergenceError, match="runs off: 5 steps in a row") as err:
+        arc.run(np.array([0.0]))
+    assert 0.49 < err.value.diagnosis["tau"] < 0.5 and arc.stats.steps < 60
+    with pytest.raises(ConvergenceError, match="too many continuation steps"):
+        ArclengthContinuation(ev, ArclengthOptions(verbose=False, max_steps=200)).run(np.array([0.0]))
+    z, _ = ArclengthContinuation(fold, watched).run(np.array([-2.0]))
+    assert z[0] == pytest.approx(2.1958233, abs=1e-6)
+
+
 def test_step_cap_grows_with_the_revolutions_and_reaches_the_shooting_problem():
     from spaceopt.indirect import chain
     from spaceopt.indirect.transfer import MAX_STEPS

@@ -268,13 +268,16 @@ def test_a_hop_t_f_first_from_far_above_marches_back_to_the_same_extremal(carrie
     assert sol.stats["end_game"]["fixed_time_solves"] < 0.05 / HOPS["probe_days"]
 
 
-def test_a_hop_whose_fixed_time_path_takes_more_than_max_path_steps_fails(carried):
+@pytest.mark.parametrize("given, why", [({"first_step": 1e-3, "max_path_steps": 3}, "too many continuation steps"),
+                                        ({"first_step": 1e-3, "runoff_slope": 1.01, "runoff_steps": 2}, "runs off: 2 steps in a row")])
+def test_a_hop_whose_fixed_time_path_takes_too_many_steps_or_runs_off_fails(carried, given, why):
     """The fixed-time path is given up after ``max_path_steps`` steps (from a first step of 1e-3
-    three steps cannot reach τ = 1), as a ConvergenceError the hops halve on."""
+    three steps cannot reach τ = 1), and where it runs off: ``runoff_steps`` steps in a row with
+    |dτ/ds| < ``runoff_slope`` (above 1 every step counts), as a ConvergenceError the hops halve on."""
     first, pts = carried[1], carried[2]
-    capped = {**HOPS, "first_step": 1e-3, "max_path_steps": 3}
-    with pytest.raises(ConvergenceError, match="too many continuation steps"):
-        TF.hop(first, 13.9, TF.predicted_tof(pts, 13.9, 1e-2), ContinuationOptions(verbose=False), capped, "hop")
+    with pytest.raises(ConvergenceError, match=why):
+        TF.hop(first, 13.9, TF.predicted_tof(pts, 13.9, 1e-2), ContinuationOptions(verbose=False), {**HOPS, **given},
+               "hop")
 
 
 @pytest.fixture
@@ -356,7 +359,7 @@ def test_the_hop_settings_default_and_name_a_bad_key():
     for bad, key in (({"step": 1}, "k.step"), ({"min_step_N": 0.1}, "k.min_step_N"), ({"probe_days": 0}, "k.probe_days"),
                      ({"max_points": 2.5}, "k.max_points"), ({"first_step": -0.3}, "k.first_step"),
                      ({"max_path_steps": 0}, "k.max_path_steps"), ({"max_march_days": 0.05}, "k.max_march_days"),
-                     ({"max_tof_steps": True}, "k.max_tof_steps"),
+                     ({"runoff_steps": True}, "k.runoff_steps"), ({"runoff_slope": 0}, "k.runoff_slope"),
                      ([0.02], "k")):
         with pytest.raises(ConfigError, match=f"^{key.replace('.', '[.]')}"):
             TF.hop_settings(bad, "k")

@@ -809,6 +809,8 @@ class ArclengthOptions(ContinuationOptions):
     h_max: float = 0.3
     max_steps: int = 400
     tau_floor: float = -1.0     # the path gave up on τ = 1 once it runs back below this
+    runoff_slope: float = 0.0   # > 0: the path given up after runoff_steps accepted steps in a row with |dτ/ds| below this
+    runoff_steps: int = 10
 
 
 class ArclengthContinuation(Continuation):
@@ -821,8 +823,15 @@ class ArclengthContinuation(Continuation):
     Newton corrector solves (f − (1 − τ) b, t·(u − u_pred)) = 0. Step control as in
     :class:`Continuation`. When a step crosses τ = 1 the end point is interpolated linearly and
     polished at τ = 1 (``polish``). A path that turns back and runs below ``tau_floor`` is given
-    up with a diagnosis (E6, 28 May: after a fold at τ 0.78 it ran on to τ = −6). Same
-    ``evaluate`` signature as :class:`Continuation`; here τ₀ = 0, τ₁ = 1.
+    up with a diagnosis (E6, 28 May: after a fold at τ 0.78 it ran on to τ = −6). So is, with
+    ``runoff_slope`` > 0, a path that runs off in z at a τ short of 1: ``runoff_steps`` accepted
+    steps in a row whose tangent has |dτ/ds| < ``runoff_slope`` (a fold passes dτ/ds = 0 in a
+    step or two). Measured on E7's full-model hops (seventy-third session, t = (z, τ) with z the
+    scaled unknowns): fixed-time paths with a t_f shorter than the least time at the thrust
+    took 24–40 steps in a row below 0.01 (and ran on to the step cap, 400 steps and 30 min where
+    no lower one was set), while the paths that arrived had at most one such step, slow legs
+    too (dτ/ds 0.05–0.9, a turn at 0.006). Same ``evaluate`` signature as :class:`Continuation`;
+    here τ₀ = 0, τ₁ = 1.
     """
 
     def __init__(self, evaluate, options: ContinuationOptions | None = None, polish=None, residual=None,
@@ -860,6 +869,7 @@ class ArclengthContinuation(Continuation):
             z, tau, t, h, F = saved["z"], float(saved["tau"]), saved["tangent"], float(saved["h"]), saved["F"]
             carried = None
         landings = 0
+        slow = 0 if saved is None else int(saved.get("slow", 0))    # accepted steps in a row below runoff_slope
         while True:
             if 0 < opt.end_overshoot and 0.0 <= 1.0 - tau <= opt.end_overshoot and t[-1] > 0:
                 ds = (1.0 - tau) / t[-1]                    # next to τ = 1: along the tangent
@@ -914,9 +924,13 @@ class ArclengthContinuation(Continuation):
             self._log(f"s-step {self.stats.steps}: tau={tau:.6f} h={h:.3g} corr={iters} "
                       f"|F_pred|={self.predicted_residual:.1e} |F|={nF:.2e} "
                       f"dtau/ds={t[-1]:+.3f} jac={self.stats.jacobians}")
+            slow = slow + 1 if abs(t[-1]) < opt.runoff_slope else 0
+            if slow >= opt.runoff_steps > 0:
+                raise self._diagnose(f"the path runs off: {slow} steps in a row with |dtau/ds| < {opt.runoff_slope:g}",
+                                     z, tau, h, F)
             h = self._grow(h, iters, nF, opt.h_max)
             if checkpoint:
-                self._save(checkpoint, z=z, tau=tau, tangent=t, h=h, b=b, F=F, h_cap=self._h_cap)
+                self._save(checkpoint, z=z, tau=tau, tangent=t, h=h, b=b, F=F, h_cap=self._h_cap, slow=slow)
         # polish at τ = 1
         f, J, ftau, ok = self._eval(z, 1.0, final=True)
         out = self._polish(z, J, f, 1.0, h, _lstsq, "done (arclength)")

@@ -51,7 +51,7 @@ from − to +, the free-time condition's, not a certified maximum of the smoothe
 with ``first_step`` 1.2 (seventieth session) the same points in 194 Jacobians instead of 337, and on
 to 0.45 N (the carried point again; at 0.5 N another extremal than the carried one, 0.50 d shorter).
 From the carried 0.45 N point (seventy-second session) to 0.3225 N, where the secant's t_f fell
-short and the fixed-time paths ran off (hence ``max_path_steps`` and the retry with a longer t_f,
+short and the fixed-time paths ran off (hence the run-off test and the retry with a longer t_f,
 which reached 0.32 N); with the retry's t_f first and its end game's doubling march (seventy-third
 session) from the carried 0.32 N point to 0.31 N, onto the carried extremal, not to 0.30 N.
 """
@@ -73,7 +73,7 @@ if TYPE_CHECKING:
 COLUMNS = ("case", "model", "start", "thrust_N", "eps", "m_f_kg", "propellant_kg", "tof_days", "max_apogee_km", "max_e",
            "least_radius_km", "duty", "steps", "jacobians", "wall_s", "hop")
 HOP_DEFAULTS = {"step_N": 0.02, "min_step_N": 0.0025, "probe_days": 0.1, "max_march_days": 1.6, "max_points": 24,
-                "first_step": 1.2, "max_path_steps": 40, "max_tof_steps": 160}
+                "first_step": 1.2, "runoff_slope": 0.01, "runoff_steps": 10, "max_path_steps": 400}
 HOP_END_GAME = "hop end game"       # the diagnosis reason of a hop whose end game finds no crossing
 
 
@@ -127,10 +127,10 @@ def settings(pc: dict) -> dict[str, dict]:
 
 def hop_settings(hops, key: str) -> dict | None:
     """``hops`` ({step_N, min_step_N, probe_days, max_march_days, max_points, first_step,
-    max_path_steps, max_tof_steps}, each defaulting to :data:`HOP_DEFAULTS`; null: off) checked:
-    ConfigError naming the key where it is no mapping, has another key, a step, probe or first
-    step is not positive, min_step_N exceeds step_N, max_march_days is less than probe_days, or
-    max_points, max_path_steps or max_tof_steps is not a positive integer."""
+    runoff_slope, runoff_steps, max_path_steps}, each defaulting to :data:`HOP_DEFAULTS`; null:
+    off) checked: ConfigError naming the key where it is no mapping, has another key, a step,
+    probe, first step or run-off slope is not positive, min_step_N exceeds step_N, max_march_days
+    is less than probe_days, or max_points, runoff_steps or max_path_steps is not a positive integer."""
     from .multirev_config import number, positive_integer
     if hops is None:
         return None
@@ -140,14 +140,14 @@ def hop_settings(hops, key: str) -> dict | None:
     if unknown:
         raise ConfigError(f"{key}.{unknown[0]}", hops[unknown[0]], f"not a hop setting (expected {', '.join(HOP_DEFAULTS)})")
     out = {**HOP_DEFAULTS, **hops}
-    for k in ("step_N", "min_step_N", "probe_days", "max_march_days", "first_step"):
+    for k in ("step_N", "min_step_N", "probe_days", "max_march_days", "first_step", "runoff_slope"):
         out[k] = number(out, k, key, positive=True)
     if out["min_step_N"] > out["step_N"]:
         raise ConfigError(f"{key}.min_step_N", out["min_step_N"], f"must not exceed step_N ({out['step_N']:g})")
     if out["max_march_days"] < out["probe_days"]:
         raise ConfigError(f"{key}.max_march_days", out["max_march_days"],
                           f"must not be less than probe_days ({out['probe_days']:g})")
-    for k in ("max_points", "max_path_steps", "max_tof_steps"):
+    for k in ("max_points", "runoff_steps", "max_path_steps"):
         positive_integer(out[k], f"{key}.{k}")
     return out
 
@@ -235,13 +235,14 @@ def hop(sol: Solution, thrust_N: float, tof_days: float, options, hops: dict, la
     """The family point ``sol`` (a free-time OT solution at its thrust and ε) hopped to
     ``thrust_N``: moved there on the fixed-time map (t(K_f) = t_f in place of p_t(K_f) = 0),
     t_f moved linearly with T from the point's own to ``tof_days`` (with ``tof_first``, for a
-    t_f chosen long: t_f alone first, at the point's thrust, given up after ``max_tof_steps``
-    steps, as that leg has a solution all along and only takes long: E7 at 0.31 N, 40 steps
-    for 13.7 d, seventy-third session; then T at that t_f), in arclength from a first step of
-    ``first_step``, the path in T given up after ``max_path_steps`` steps (``chain.continue_in_params``;
-    where the predicted t_f is too short for the thrust the path runs off in z at a τ short of 1,
-    dτ/ds → 0, with steps that each pass the corrector: E7 full model, seventy-second session,
-    400 steps and 30 min before the follower's own cap, where an arriving path takes 1–9); then
+    t_f chosen long: t_f alone first, at the point's thrust, then T at that t_f), in arclength
+    from a first step of ``first_step`` (``chain.continue_in_params``). Each leg is given up
+    where it runs off, ``runoff_steps`` steps in a row with |dτ/ds| < ``runoff_slope``
+    (``ArclengthOptions``: where the predicted t_f is too short for the thrust the path runs off
+    in z at a τ short of 1, dτ/ds → 0, with steps that each pass the corrector: E7 full model,
+    seventy-second session, 400 steps and 30 min before the follower's own cap, where an
+    arriving path takes 1–9), or after ``max_path_steps`` steps (slow legs that arrive take
+    many: E7 at 0.31 N, the t_f leg to 0.305 N 86 steps, seventy-third session); then
     the free-time end game at ``thrust_N`` from there (``free_time.maximise_final_mass``: probes
     ``probe_days`` apart, the march in t_f by such steps (with ``tof_first`` doubling up to
     ``max_march_days``: the start may lie days above the crossing), Brent; at most
@@ -260,12 +261,12 @@ def hop(sol: Solution, thrust_N: float, tof_days: float, options, hops: dict, la
                                 prm={**sol.prm, "tf": datum(tof_of(sol) * DAY / tu)})
     target = {**at_thrust(sol, thrust_N, eps).prm, "tf": datum(tof_days * DAY / tu)}
     follower = dataclasses.replace(chain.path_options("arclength", options, f"{label} fixed time"),
-                                   h_init=hops["first_step"])
-    legs = [({**fixed.prm, "tf": target["tf"]}, hops["max_tof_steps"])] if tof_first else []
+                                   h_init=hops["first_step"], max_steps=hops["max_path_steps"],
+                                   runoff_slope=hops["runoff_slope"], runoff_steps=hops["runoff_steps"])
+    legs = [{**fixed.prm, "tf": target["tf"]}] if tof_first else []
     moved, steps, jacobians = fixed, 0, 0
-    for leg, cap in [*legs, (target, hops["max_path_steps"])]:
-        moved = chain.continue_in_params(moved, leg, dataclasses.replace(follower, max_steps=cap),
-                                         label=f"{label} fixed time", path="arclength")
+    for leg in [*legs, target]:
+        moved = chain.continue_in_params(moved, leg, follower, label=f"{label} fixed time", path="arclength")
         steps += moved.stats.get("steps", 0)
         jacobians += moved.stats.get("jacobian_evaluations", 0)
     free = dataclasses.replace(at_thrust(sol, thrust_N, eps), z=moved.z)
