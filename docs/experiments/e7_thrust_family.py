@@ -57,7 +57,9 @@ running away (535 000 km at 0.30 N); at 2 revolutions 14.85 N against the bound'
 down to 0.45 N) to 0.3225 N, then with the retry at a longer t_f to 0.3175 N; not to 0.31 N.
 With the retry's t_f first and the end game's doubling march (seventy-third session; ``at`` the
 carried family's 0.32 N point, then ``hop`` from it to 0.31,0.3): 0.315 N, then 0.31 N on the
-carried extremal (725.411 kg, 152.874 d); not 0.30 N.
+carried extremal (725.411 kg, 152.874 d); not 0.30 N. With the run-off test in place of the
+step caps (seventy-fourth session; the hop to 0.305 N from that 0.31 N point, then ``hop`` from
+it to 0.3 at 0.005): 0.305 N (696.942 kg, 171.759 d), 0.30 N (671.069 kg, 190.369 d).
 """
 import dataclasses
 import sys

@@ -53,7 +53,9 @@ to 0.45 N (the carried point again; at 0.5 N another extremal than the carried o
 From the carried 0.45 N point (seventy-second session) to 0.3225 N, where the secant's t_f fell
 short and the fixed-time paths ran off (hence the run-off test and the retry with a longer t_f,
 which reached 0.32 N); with the retry's t_f first and its end game's doubling march (seventy-third
-session) from the carried 0.32 N point to 0.31 N, onto the carried extremal, not to 0.30 N.
+session) from the carried 0.32 N point to 0.31 N, onto the carried extremal; with the paths given
+up where they run off (``runoff_slope``, seventy-fourth session) in place of step caps, on to
+0.305 and 0.30 N (a neighbour of the carried extremal, 0.45 d shorter).
 """
 from __future__ import annotations
 
@@ -242,7 +244,7 @@ def hop(sol: Solution, thrust_N: float, tof_days: float, options, hops: dict, la
     in z at a τ short of 1, dτ/ds → 0, with steps that each pass the corrector: E7 full model,
     seventy-second session, 400 steps and 30 min before the follower's own cap, where an
     arriving path takes 1–9), or after ``max_path_steps`` steps (slow legs that arrive take
-    many: E7 at 0.31 N, the t_f leg to 0.305 N 86 steps, seventy-third session); then
+    many: E7, the path 0.305 → 0.30 N 260 steps, 34 min, seventy-fourth session); then
     the free-time end game at ``thrust_N`` from there (``free_time.maximise_final_mass``: probes
     ``probe_days`` apart, the march in t_f by such steps (with ``tof_first`` doubling up to
     ``max_march_days``: the start may lie days above the crossing), Brent; at most
