@@ -436,16 +436,21 @@ def test_arclength_gives_up_a_path_that_runs_back_below_the_floor():
     assert 0.45 < err.value.diagnosis["tau_max"] <= 0.5         # where the path turned back
 
 
-def test_arclength_gives_up_a_path_that_runs_off_in_z_and_passes_folds():
+def test_arclength_gives_up_a_path_that_runs_off_in_z_and_passes_folds(tmp_path):
     """e^(−z) + 1 = 2(1 − τ) from z = 0 reaches τ = ½ only as z → ∞: with ``runoff_slope`` the
     follower stops after ``runoff_steps`` steps in a row with |dτ/ds| below it, short of its
-    step cap (which it runs into without); the folds of z³ − 3z = −2 + 6τ (dτ/ds through 0)
-    do not stop it."""
+    step cap (which it runs into without), and stopped within that run and resumed from its
+    checkpoint at the same step; the folds of z³ − 3z = −2 + 6τ (dτ/ds through 0) do not stop it."""
     import numpy as np
     from spaceopt.errors import ConvergenceError
     from spaceopt.indirect.continuation import ArclengthContinuation, ArclengthOptions
 
+    calls = {"n": 0, "stop": None}
+
     def ev(z, tau):
+        calls["n"] += 1
+        if calls["stop"] is not None and calls["n"] > calls["stop"]:
+            raise KeyboardInterrupt
         return np.atleast_1d(np.exp(-z) + 1.0), np.array([[-np.exp(-z[0])]]), np.zeros(1), 0, True
 
     def fold(z, tau):
@@ -456,6 +461,16 @@ def test_arclength_gives_up_a_path_that_runs_off_in_z_and_passes_folds():
     with pytest.raises(ConvergenceError, match="runs off: 5 steps in a row") as err:
         arc.run(np.array([0.0]))
     assert 0.49 < err.value.diagnosis["tau"] < 0.5 and arc.stats.steps < 60
+    total, steps = calls["n"], arc.stats.steps
+    saved = dataclasses.replace(watched, label="runoff", checkpoint_dir=str(tmp_path))
+    calls.update(n=0, stop=total - 3)            # within the run of slow steps
+    with pytest.raises(KeyboardInterrupt):
+        ArclengthContinuation(ev, saved).run(np.array([0.0]))
+    calls.update(n=0, stop=None)
+    resumed = ArclengthContinuation(ev, saved)
+    with pytest.raises(ConvergenceError, match="runs off: 5 steps in a row"):
+        resumed.run(np.array([0.0]))
+    assert resumed.stats.steps == steps and calls["n"] < total
     with pytest.raises(ConvergenceError, match="too many continuation steps"):
         ArclengthContinuation(ev, ArclengthOptions(verbose=False, max_steps=200)).run(np.array([0.0]))
     z, _ = ArclengthContinuation(fold, watched).run(np.array([-2.0]))
