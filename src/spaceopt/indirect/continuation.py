@@ -826,12 +826,12 @@ class ArclengthContinuation(Continuation):
     up with a diagnosis (E6, 28 May: after a fold at τ 0.78 it ran on to τ = −6). So is, with
     ``runoff_slope`` > 0, a path that runs off in z at a τ short of 1: ``runoff_steps`` accepted
     steps in a row whose tangent has |dτ/ds| < ``runoff_slope`` (a fold passes dτ/ds = 0 in a
-    step or two). Measured on E7's full-model hops (seventy-third session, t = (z, τ) with z the
-    scaled unknowns): fixed-time paths with a t_f shorter than the least time at the thrust
-    took 24–40 steps in a row below 0.01 (and ran on to the step cap, 400 steps and 30 min where
-    no lower one was set), while the paths that arrived had at most one such step, slow legs
-    too (dτ/ds 0.05–0.9, a turn at 0.006). Same ``evaluate`` signature as :class:`Continuation`;
-    here τ₀ = 0, τ₁ = 1.
+    step or two). Measured on E7's full-model hops (seventy-third and seventy-fourth sessions,
+    t = (z, τ) with z the scaled unknowns): fixed-time paths with a t_f shorter than the least
+    time at the thrust took 24–40 steps in a row below 0.01 (and ran on to the step cap, 400
+    steps and 30 min where no lower one was set), while the nine that arrived (5–260 steps) had
+    at most one such step (a turn at 0.003; the slowest, 36 steps in a row below 0.03). Same
+    ``evaluate`` signature as :class:`Continuation`; here τ₀ = 0, τ₁ = 1.
     """
 
     def __init__(self, evaluate, options: ContinuationOptions | None = None, polish=None, residual=None,
