@@ -60,6 +60,8 @@ carried family's 0.32 N point, then ``hop`` from it to 0.31,0.3): 0.315 N, then 
 carried extremal (725.411 kg, 152.874 d); not 0.30 N. With the run-off test in place of the
 step caps (seventy-fourth session; the hop to 0.305 N from that 0.31 N point, then ``hop`` from
 it to 0.3 at 0.005): 0.305 N (696.942 kg, 171.759 d), 0.30 N (671.069 kg, 190.369 d).
+From the carried 0.30 N point (seventy-fifth session, ``at`` then ``hop`` to 0.295 at 0.005): not
+0.295 N, its path stopped by ``hops.max_path_steps`` (400) at tau 0.494 while still moving.
 """
 import dataclasses
 import sys
